@@ -1,0 +1,41 @@
+# pg_add_module(<name> DEPS <targets...>)
+#   One library per folder lib/pg/<name>: every *.cpp except *_test.cpp is a source.
+#   Its *_test.cpp files become the test executable pg_<name>_tests.
+function(pg_add_module name)
+  cmake_parse_arguments(ARG "" "" "DEPS;TEST_DEPS" ${ARGN})
+  file(GLOB all_sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cpp)
+  set(sources "")
+  set(tests "")
+  foreach(f IN LISTS all_sources)
+    if(f MATCHES "_test\\.cpp$")
+      list(APPEND tests ${f})
+    else()
+      list(APPEND sources ${f})
+    endif()
+  endforeach()
+  add_library(pg_${name} STATIC ${sources})
+  add_library(pg::${name} ALIAS pg_${name})
+  target_include_directories(pg_${name} PUBLIC ${PROJECT_SOURCE_DIR}/lib ${PROJECT_BINARY_DIR}/generated)
+  target_link_libraries(pg_${name} PUBLIC ${ARG_DEPS})
+  if(PG_BUILD_TESTS AND tests)
+    pg_add_test(pg_${name}_tests SOURCES ${tests} DEPS pg_${name} ${ARG_TEST_DEPS})
+  endif()
+endfunction()
+
+# pg_add_test(<name> SOURCES <files...> DEPS <targets...>)
+function(pg_add_test name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} pg_testing GTest::gtest GTest::gtest_main)
+  gtest_discover_tests(${name} DISCOVERY_MODE PRE_TEST
+    PROPERTIES ENVIRONMENT "PG_BIN_DIR=${PROJECT_BINARY_DIR}/bin"
+    DISCOVERY_TIMEOUT 60)
+endfunction()
+
+# pg_add_tool(<name> SOURCES <files...> DEPS <targets...>): an executable pg-<stage> in bin/.
+function(pg_add_tool name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE pg_cli ${ARG_DEPS})
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/bin)
+endfunction()

@@ -1,0 +1,97 @@
+#include "pg/testing/testing.h"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "pg/build_info.h"
+
+extern char** environ;
+namespace fs = std::filesystem;
+
+namespace pg::testing {
+
+TempDir::TempDir() {
+  static std::atomic<int> counter{0};
+  std::random_device rd;
+  path_ = fs::temp_directory_path() /
+          ("pg-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + "-" + std::to_string(rd()));
+  fs::create_directories(path_);
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  fs::remove_all(path_, ec);
+}
+
+std::optional<fs::path> real_data(const std::string& relative) {
+  const char* env = std::getenv("PG_DATA_DIR");
+  fs::path root = env && *env ? fs::path(env) : fs::path(build_info::default_data_dir);
+  fs::path p = root / relative;
+  if (fs::exists(p)) return p;
+  return std::nullopt;
+}
+
+fs::path bin_dir() {
+  const char* env = std::getenv("PG_BIN_DIR");
+  if (env && *env) return env;
+  return fs::path(build_info::source_dir) / "build" / "bin";
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
+
+ToolResult run_tool(const std::string& tool, const std::vector<std::string>& args,
+                    const std::vector<std::string>& extra_env) {
+  TempDir capture;
+  fs::path out_path = capture / "stdout", err_path = capture / "stderr";
+  std::string exe = (bin_dir() / tool).string();
+  std::vector<std::string> argv_storage{exe};
+  argv_storage.insert(argv_storage.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : argv_storage) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  std::vector<std::string> env_storage;
+  for (char** e = environ; *e; ++e) env_storage.emplace_back(*e);
+  env_storage.insert(env_storage.end(), extra_env.begin(), extra_env.end());
+  std::vector<char*> envp;
+  for (auto& e : env_storage) envp.push_back(e.data());
+  envp.push_back(nullptr);
+
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  pid_t pid;
+  ToolResult result;
+  if (posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), envp.data()) != 0) {
+    posix_spawn_file_actions_destroy(&actions);
+    result.stderr_text = "cannot start " + exe;
+    return result;
+  }
+  posix_spawn_file_actions_destroy(&actions);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  result.stdout_text = read_text(out_path);
+  result.stderr_text = read_text(err_path);
+  return result;
+}
+
+}  // namespace pg::testing

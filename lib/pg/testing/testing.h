@@ -1,0 +1,50 @@
+#pragma once
+// Test helpers: a fresh temporary folder per test, the real-data folder, and running a tool binary.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace pg::testing {
+
+// A folder removed at destruction.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// The real third-party data folder: $PG_DATA_DIR, else ../shared/data beside the source tree.
+// Returns nullopt when `relative` is absent beneath it (the caller GTEST_SKIPs with a message).
+std::optional<std::filesystem::path> real_data(const std::string& relative);
+
+// Folder holding the pg-* executables: $PG_BIN_DIR, set by CTest.
+std::filesystem::path bin_dir();
+
+struct ToolResult {
+  int exit_code = -1;
+  std::string stdout_text;
+  std::string stderr_text;
+};
+
+// Runs bin_dir()/tool with args (no shell), capturing both streams.
+ToolResult run_tool(const std::string& tool, const std::vector<std::string>& args,
+                    const std::vector<std::string>& extra_env = {});
+
+std::string read_text(const std::filesystem::path& path);
+void write_text(const std::filesystem::path& path, const std::string& text);
+
+}  // namespace pg::testing
+
+// Skips the test with a message when real data is absent.
+#define PG_REQUIRE_REAL_DATA(var, relative)                                            \
+  auto var##_opt = ::pg::testing::real_data(relative);                                 \
+  if (!var##_opt) GTEST_SKIP() << "real data '" << relative << "' not found (set PG_DATA_DIR)"; \
+  const std::filesystem::path var = *var##_opt

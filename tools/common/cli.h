@@ -1,0 +1,61 @@
+#pragma once
+// The shared frame of every pg-* tool: common flags, logging, threads, progress, the run report,
+// exit codes and the input/output rules (inputs must exist; outputs never overwrite an input and are
+// written atomically by the library writers). A tool's main is:
+//
+//   int main(int argc, char** argv) {
+//     pg::cli::Frame frame({"pg-x", "one-line summary", "pg-x --in a.exr --out b.ply"});
+//     Options o;  frame.app().add_option("--in", o.in)->required();  ...
+//     return frame.run(argc, argv, [&] { frame.input(o.in); frame.output(o.out); ... });
+//   }
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace pg::cli {
+
+struct ToolInfo {
+  std::string name;     // "pg-synth"
+  std::string summary;  // one line
+  std::string example;  // one or more worked command lines, shown by --help
+};
+
+class Frame {
+ public:
+  explicit Frame(ToolInfo info);
+
+  CLI::App& app() { return app_; }
+  std::uint64_t seed() const { return seed_; }
+  int threads() const { return threads_; }
+
+  // Declares an input file: it must exist (InputError otherwise); recorded in the report/provenance.
+  void input(const std::filesystem::path& path);
+  // Declares an input folder.
+  void input_dir(const std::filesystem::path& path);
+  // Declares an output file: refused (OutputError) if it is one of the declared inputs or its
+  // folder is missing; recorded in the report.
+  void output(const std::filesystem::path& path);
+  // Declares an output folder, created if missing; refused if it is a declared input folder.
+  void output_dir(const std::filesystem::path& path);
+
+  // Parses, applies the common flags, runs body and maps exceptions to exit codes.
+  int run(int argc, char** argv, const std::function<void()>& body);
+
+ private:
+  ToolInfo info_;
+  CLI::App app_;
+  std::string log_level_ = "info";
+  std::string progress_mode_ = "auto";
+  std::string report_path_;
+  std::uint64_t seed_ = 1;
+  int threads_ = 0;
+  std::vector<std::filesystem::path> inputs_;
+  std::vector<std::filesystem::path> input_dirs_;
+};
+
+std::string exit_code_help();
+
+}  // namespace pg::cli
