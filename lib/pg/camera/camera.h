@@ -45,6 +45,7 @@ struct Camera {
   Eigen::Vector3d unproject(const Eigen::Vector2d& pixel) const;
   // World point -> pixel, through cam_from_world.
   bool project_world(const Eigen::Vector3d& point_world, Eigen::Vector2d& pixel) const;
+  // Whether the pixel lies in [-0.5 + margin, width - 0.5 - margin) x [-0.5 + margin, height - 0.5 - margin).
   bool in_image(const Eigen::Vector2d& pixel, double margin = 0) const;
   bool is_perspective() const { return model != CameraModel::equirectangular; }
   Eigen::Matrix3d K() const;

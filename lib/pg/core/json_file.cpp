@@ -21,7 +21,7 @@ nlohmann::json read_json_file(const fs::path& path) {
   buffer << in.rdbuf();
   try {
     return nlohmann::json::parse(buffer.str());
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse errors, and numbers out of range (1e999)
     throw InputError(path, std::string("not valid JSON: ") + e.what());
   }
 }
@@ -43,6 +43,10 @@ int check_format_header(const nlohmann::json& doc, const fs::path& path, const s
 }
 
 void write_json_file(const fs::path& path, const nlohmann::json& doc) {
+  write_file_atomically(path, doc.dump(2) + "\n");
+}
+
+void write_json_file(const fs::path& path, const nlohmann::ordered_json& doc) {
   write_file_atomically(path, doc.dump(2) + "\n");
 }
 

@@ -16,8 +16,10 @@ nlohmann::json read_json_file(const std::filesystem::path& path);
 int check_format_header(const nlohmann::json& doc, const std::filesystem::path& path,
                         const std::string& format, int max_version);
 
-// Serialises with 2-space indent and writes atomically.
+// Serialises with 2-space indent and writes atomically. Use ordered_json to keep "format", "version"
+// and "provenance" first, as the conventions ask.
 void write_json_file(const std::filesystem::path& path, const nlohmann::json& doc);
+void write_json_file(const std::filesystem::path& path, const nlohmann::ordered_json& doc);
 
 // Typed field access that throws InputError("<path>: <where>: ...") instead of nlohmann's exceptions.
 class JsonReader {

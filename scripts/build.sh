@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Configures and builds pg (Release, warnings on, ccache when present, -j from the core count).
+# Usage: scripts/build.sh [--sanitize] [extra cmake args...]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build_dir=build
+args=(-DCMAKE_BUILD_TYPE=Release)
+if [ "${1:-}" = "--sanitize" ]; then
+  shift
+  build_dir=build-sanitize
+  args=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DPG_SANITIZE=ON -DPG_BUILD_BENCH=OFF)
+fi
+generator=()
+if command -v ninja >/dev/null; then generator=(-G Ninja); fi
+if [ ! -f "$build_dir/CMakeCache.txt" ]; then
+  cmake -S . -B "$build_dir" "${generator[@]}" "${args[@]}" "$@"
+fi
+cmake --build "$build_dir" -j "$(nproc)"
