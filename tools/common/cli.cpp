@@ -1,9 +1,9 @@
 #include "common/cli.h"
 
+#include <unistd.h>
 #include <csignal>
 #include <iostream>
 #include <new>
-#include <unistd.h>
 
 #include "pg/build_info.h"
 #include "pg/core/atomic_file.h"

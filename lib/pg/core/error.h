@@ -9,13 +9,13 @@ namespace pg {
 
 enum class ExitCode : int {
   ok = 0,
-  internal = 1,      // a bug: an unexpected exception
-  usage = 2,         // bad command line or option values
-  bad_input = 3,     // an input file is missing, unreadable or invalid
-  failed = 4,        // the computation could not produce a result (e.g. too few views)
-  out_of_memory = 5, // allocation failed; a farm may retry on a bigger node
-  output = 6,        // an output could not be written, or would overwrite an input
-  interrupted = 130, // SIGINT / SIGTERM
+  internal = 1,       // a bug: an unexpected exception
+  usage = 2,          // bad command line or option values
+  bad_input = 3,      // an input file is missing, unreadable or invalid
+  failed = 4,         // the computation could not produce a result (e.g. too few views)
+  out_of_memory = 5,  // allocation failed; a farm may retry on a bigger node
+  output = 6,         // an output could not be written, or would overwrite an input
+  interrupted = 130,  // SIGINT / SIGTERM
 };
 
 class Error : public std::runtime_error {

@@ -30,7 +30,8 @@ int check_format_header(const nlohmann::json& doc, const fs::path& path, const s
                         int max_version) {
   if (!doc.is_object()) throw InputError(path, "top level is not a JSON object");
   auto f = doc.find("format");
-  if (f == doc.end() || !f->is_string()) throw InputError(path, "missing \"format\" (expected \"" + format + "\")");
+  if (f == doc.end() || !f->is_string())
+    throw InputError(path, "missing \"format\" (expected \"" + format + "\")");
   if (f->get<std::string>() != format)
     throw InputError(path, "format is \"" + f->get<std::string>() + "\", expected \"" + format + "\"");
   auto v = doc.find("version");
@@ -59,7 +60,9 @@ void JsonReader::fail(const std::string& problem) const {
   throw InputError(file_, where_.empty() ? problem : where_ + ": " + problem);
 }
 
-bool JsonReader::has(const char* key) const { return node_.contains(key) && !node_[key].is_null(); }
+bool JsonReader::has(const char* key) const {
+  return node_.contains(key) && !node_[key].is_null();
+}
 
 const nlohmann::json& JsonReader::field(const char* key) const {
   auto it = node_.find(key);
@@ -111,7 +114,8 @@ std::vector<double> JsonReader::numbers(const char* key, std::size_t n) const {
   const auto& c = field(key);
   if (!c.is_array()) fail(std::string("\"") + key + "\" is not an array");
   if (n != 0 && c.size() != n)
-    fail(std::string("\"") + key + "\" has " + std::to_string(c.size()) + " values, expected " + std::to_string(n));
+    fail(std::string("\"") + key + "\" has " + std::to_string(c.size()) + " values, expected " +
+         std::to_string(n));
   std::vector<double> out;
   out.reserve(c.size());
   for (const auto& e : c) {

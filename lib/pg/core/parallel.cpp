@@ -19,7 +19,8 @@ int g_threads = 0;
 void set_thread_count(int threads) {
   std::lock_guard lock(g_mutex);
   g_control.reset();
-  if (threads > 0) g_control = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+  if (threads > 0)
+    g_control = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
   g_threads = threads;
 }
 
@@ -33,12 +34,12 @@ void parallel_chunks(std::int64_t n, std::int64_t grain,
   if (n <= 0) return;
   if (grain < 1) grain = 1;
   std::int64_t chunks = (n + grain - 1) / grain;
-  tbb::parallel_for(tbb::blocked_range<std::int64_t>(0, chunks, 1),
-                    [&](const tbb::blocked_range<std::int64_t>& r) {
-                      for (std::int64_t c = r.begin(); c != r.end(); ++c)
-                        body(c * grain, std::min(n, (c + 1) * grain));
-                    },
-                    tbb::simple_partitioner());
+  tbb::parallel_for(
+      tbb::blocked_range<std::int64_t>(0, chunks, 1),
+      [&](const tbb::blocked_range<std::int64_t>& r) {
+        for (std::int64_t c = r.begin(); c != r.end(); ++c) body(c * grain, std::min(n, (c + 1) * grain));
+      },
+      tbb::simple_partitioner());
 }
 
 }  // namespace pg

@@ -19,16 +19,24 @@ bool redraw() {
 }
 }  // namespace
 
-void Progress::set_enabled(bool enabled) { g_enabled = enabled; }
-void Progress::set_min_interval(std::chrono::milliseconds interval) { g_min_interval_ms = interval.count(); }
-void Progress::set_force_terminal(int mode) { g_terminal_mode = mode; }
+void Progress::set_enabled(bool enabled) {
+  g_enabled = enabled;
+}
+void Progress::set_min_interval(std::chrono::milliseconds interval) {
+  g_min_interval_ms = interval.count();
+}
+void Progress::set_force_terminal(int mode) {
+  g_terminal_mode = mode;
+}
 
 Progress::Progress(std::string task, std::int64_t total)
     : task_(std::move(task)), total_(total > 0 ? total : 1), start_(std::chrono::steady_clock::now()) {
   last_print_ = start_ - std::chrono::hours(1);
 }
 
-Progress::~Progress() { finish(); }
+Progress::~Progress() {
+  finish();
+}
 
 void Progress::advance(std::int64_t done) {
   std::int64_t now_done = done_.fetch_add(done) + done;

@@ -99,7 +99,8 @@ nlohmann::json RunReport::to_json() const {
   for (const auto& o : outputs_) j["outputs"].push_back(describe_file(o));
   j["metrics"] = metrics_;
   j["timings"] = nlohmann::json::array();
-  for (const auto& [phase, seconds] : timings_) j["timings"].push_back({{"phase", phase}, {"seconds", seconds}});
+  for (const auto& [phase, seconds] : timings_)
+    j["timings"].push_back({{"phase", phase}, {"seconds", seconds}});
   j["wall_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   j["cpu_seconds"] = cpu_seconds();
   j["peak_memory_bytes"] = peak_memory_bytes();
@@ -109,10 +110,15 @@ nlohmann::json RunReport::to_json() const {
   return j;
 }
 
-void RunReport::write(const fs::path& path) const { write_json_file(path, to_json()); }
+void RunReport::write(const fs::path& path) const {
+  write_json_file(path, to_json());
+}
 
-ScopedTimer::ScopedTimer(std::string phase) : phase_(std::move(phase)), start_(std::chrono::steady_clock::now()) {}
-ScopedTimer::~ScopedTimer() { RunReport::global().add_timing(phase_, seconds()); }
+ScopedTimer::ScopedTimer(std::string phase)
+    : phase_(std::move(phase)), start_(std::chrono::steady_clock::now()) {}
+ScopedTimer::~ScopedTimer() {
+  RunReport::global().add_timing(phase_, seconds());
+}
 double ScopedTimer::seconds() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
 }

@@ -44,7 +44,7 @@ void write_text(const std::filesystem::path& path, const std::string& text);
 }  // namespace pg::testing
 
 // Skips the test with a message when real data is absent.
-#define PG_REQUIRE_REAL_DATA(var, relative)                                            \
-  auto var##_opt = ::pg::testing::real_data(relative);                                 \
+#define PG_REQUIRE_REAL_DATA(var, relative)                                                     \
+  auto var##_opt = ::pg::testing::real_data(relative);                                          \
   if (!var##_opt) GTEST_SKIP() << "real data '" << relative << "' not found (set PG_DATA_DIR)"; \
   const std::filesystem::path var = *var##_opt

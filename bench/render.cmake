@@ -1,0 +1,1 @@
+pg_add_bench(bench_render SOURCES bench_render.cpp DEPS pg_render ${OpenCV_LIBS})

@@ -1,0 +1,77 @@
+#include <gtest/gtest.h>
+
+#include "pg/camera/cameras_io.h"
+#include "pg/image/depth_exr.h"
+#include "pg/image/image_io.h"
+#include "pg/mesh/bvh.h"
+#include "pg/mesh/mesh_io.h"
+#include "pg/synth/write_scene.h"
+#include "pg/testing/testing.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+// Every valid depth pixel, lifted to 3-D with the file's own camera, lies on the true mesh.
+void expect_depth_on_mesh(const fs::path& folder, double tolerance_relative) {
+  auto cameras = pg::read_cameras(folder / "cameras.json");
+  pg::Mesh truth = pg::read_mesh(folder / "mesh.ply");
+  pg::TriangleBvh bvh(truth);
+  for (const auto& camera : cameras.cameras) {
+    auto depth = pg::read_depth_exr(folder / "depth" / (camera.id + ".exr"));
+    ASSERT_EQ(depth.camera.width, camera.width);
+    int valid = 0;
+    double worst = 0;
+    for (int y = 0; y < depth.depth.rows; y += 3)
+      for (int x = 0; x < depth.depth.cols; x += 3) {
+        float d = depth.depth.at<float>(y, x);
+        if (std::isnan(d)) continue;
+        ++valid;
+        Eigen::Vector3d ray = camera.unproject({double(x), double(y)});
+        // perspective_z: scale the unit ray to the z plane; spherical_range: along the ray.
+        Eigen::Vector3d p_cam = depth.kind == pg::DepthKind::perspective_z ? ray * (d / ray.z()) : ray * d;
+        Eigen::Vector3d p = camera.cam_from_world.inverse() * p_cam;
+        double distance = bvh.closest_point(p.cast<float>()).distance;
+        worst = std::max(worst, distance / d);
+      }
+    EXPECT_GT(valid, 100) << camera.id;
+    EXPECT_LT(worst, tolerance_relative) << camera.id;
+  }
+}
+}  // namespace
+
+TEST(WriteScene, SetDepthMapsLieOnTheTrueMesh) {
+  pg::testing::TempDir dir;
+  pg::synth::SceneOptions o;
+  o.width = 160;
+  o.height = 120;
+  o.views = 3;
+  pg::synth::write_scene(pg::synth::make_set_scene(o), dir.path(), {.supersample = 1, .write_depth = true});
+  expect_depth_on_mesh(dir.path(), 1e-4);
+  cv::Mat image = pg::read_image(dir / "images/view_000.png");
+  EXPECT_EQ(image.cols, 160);
+  EXPECT_EQ(image.type(), CV_8UC3);
+}
+
+TEST(WriteScene, PanoramaRangeMapsLieOnTheTrueMesh) {
+  pg::testing::TempDir dir;
+  pg::synth::SceneOptions o;
+  o.height = 64;
+  pg::synth::write_scene(pg::synth::make_room_scene(o), dir.path(), {.supersample = 1, .write_depth = true});
+  expect_depth_on_mesh(dir.path(), 1e-4);
+  auto depth = pg::read_depth_exr(dir / "depth/pano_lower.exr");
+  EXPECT_EQ(depth.kind, pg::DepthKind::spherical_range);
+  // Inside a closed room every pixel sees a surface.
+  EXPECT_EQ(cv::countNonZero(depth.depth == depth.depth), 128 * 64);
+}
+
+TEST(WriteScene, ScaledCameraKeepsPixelCentres) {
+  pg::Camera c;
+  c.width = 10;
+  c.height = 8;
+  c.intrinsics = {100, 100, 4.5, 3.5};
+  c.distortion.k1 = -0.1;
+  pg::Camera s = pg::synth::scaled_camera(c, 4);
+  // The centre of original pixel (u, v) is the centre of the 4x4 block starting at 4u.
+  Eigen::Vector3d a = c.unproject({2, 3}), b = s.unproject({4 * 2 + 1.5, 4 * 3 + 1.5});
+  EXPECT_NEAR((a - b).norm(), 0, 1e-12);
+}
