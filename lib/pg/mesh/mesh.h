@@ -3,6 +3,7 @@
 // per-vertex attributes and named per-vertex properties (formats/meshes.md). Algorithms that need
 // connectivity (remeshing) convert to OpenMesh.
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
 #include <map>
@@ -26,12 +27,17 @@ struct Mesh {
 
   std::size_t vertex_count() const { return positions.size(); }
   std::size_t face_count() const { return faces.size(); }
-  // Throws std::invalid_argument-like pg::Error (internal) if attribute sizes or face indices are inconsistent.
+  // Throws std::invalid_argument-like pg::Error (internal) if attribute sizes or face indices are
+  // inconsistent.
   void check_consistent() const;
   // Area-weighted vertex normals from the faces.
   void compute_vertex_normals();
+  // Empty box when there are no vertices.
   Eigen::AlignedBox3f bounds() const;
 };
+
+// Largest vertex count any mesh, point-cloud or mask reader accepts (faces index vertices as uint32).
+inline constexpr std::uint64_t max_vertex_count = (std::uint64_t{1} << 31) - 1;
 
 // Identity of a mesh's connectivity: vertex count, face count and FNV-1a 64 of the face index list.
 // Stays the same when vertices move (refinement), changes when topology changes (remeshing).
