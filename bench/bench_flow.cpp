@@ -1,0 +1,261 @@
+// Flow accuracy and speed against OpenCV's dense methods, all run here in the same process.
+//   bench_flow [--data DIR] [--only sintel|stereo|speed]...
+// Sintel alley_1 clean/final: end-point error over all and non-occluded pixels. Middlebury tsukuba,
+// venus, teddy and aloe as stereo (flow left -> right, truth u = -disparity): bad-pixel rates at 1 and
+// 2 px and the mean disparity error over pixels with known truth; methods leaving holes report their
+// density and are scored on what they estimated. Speed: the Strecha Herz-Jesus 0000/0001 pair at
+// 1536x1024, wall time and the ratio to DIS + VariationalRefinement.
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/optflow.hpp>
+#include <opencv2/video.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "pg/build_info.h"
+#include "pg/eval/flo_io.h"
+#include "pg/eval/flow_eval.h"
+#include "pg/flow/flow.h"
+#include "pg/image/image_io.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Pair {
+  cv::Mat from, to;  // 8-bit BGR
+};
+
+struct Method {
+  std::string name;
+  std::function<cv::Mat2f(const Pair&)> run;
+  bool ours = false;
+};
+
+cv::Mat gray(const cv::Mat& image) {
+  cv::Mat out;
+  cv::cvtColor(image, out, cv::COLOR_BGR2GRAY);
+  return out;
+}
+
+cv::Mat2f opencv_flow(const cv::Ptr<cv::DenseOpticalFlow>& method, const Pair& pair) {
+  cv::Mat flow;
+  method->calc(gray(pair.from), gray(pair.to), flow);
+  return flow;
+}
+
+cv::Mat2f dis_refined(const Pair& pair) {
+  const cv::Mat a = gray(pair.from), b = gray(pair.to);
+  cv::Mat flow;
+  cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_MEDIUM)->calc(a, b, flow);
+  cv::VariationalRefinement::create()->calc(a, b, flow);
+  return flow;
+}
+
+std::vector<Method> opencv_methods() {
+  return {
+      {"DIS+VariationalRefinement", dis_refined},
+      {"DeepFlow", [](const Pair& p) { return opencv_flow(cv::optflow::createOptFlow_DeepFlow(), p); }},
+      {"DualTVL1", [](const Pair& p) { return opencv_flow(cv::optflow::DualTVL1OpticalFlow::create(), p); }},
+      {"Farneback", [](const Pair& p) { return opencv_flow(cv::FarnebackOpticalFlow::create(), p); }},
+  };
+}
+
+std::vector<Method> our_methods() {
+  std::vector<Method> methods;
+  for (const char* preset : {"fast", "balanced", "accurate"})
+    methods.push_back(
+        {std::string("pg ") + preset,
+         [preset](const Pair& p) { return pg::compute_flow(p.from, p.to, pg::FlowOptions::preset(preset)); },
+         true});
+  methods.push_back({"pg balanced CLG",
+                     [](const Pair& p) {
+                       pg::FlowOptions options;
+                       options.clg_rho = 1.0;
+                       return pg::compute_flow(p.from, p.to, options);
+                     },
+                     true});
+  return methods;
+}
+
+template <class F>
+double seconds(F&& f) {
+  const auto start = Clock::now();
+  f();
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+void bench_sintel(const fs::path& data) {
+  std::printf("\n== MPI-Sintel alley_1, frame 2 -> 3: end-point error (all / non-occluded), time\n");
+  for (const char* pass : {"clean", "final"}) {
+    const fs::path dir = data / "flow/sintel" / pass / "alley_1";
+    if (!fs::exists(dir)) continue;
+    const Pair pair{pg::read_image(dir / "frame_0002.png"), pg::read_image(dir / "frame_0003.png")};
+    const cv::Mat2f truth = pg::read_flo(dir / "gt/frame_0002.flo");
+    const cv::Mat1b occlusion = pg::read_image(dir / "gt/occlusions/frame_0002.png");
+    const cv::Mat1b invalid = pg::read_image(dir / "gt/invalid/frame_0002.png");
+    double best_peer = INFINITY, best_ours = INFINITY;
+    std::vector<Method> methods = our_methods();
+    for (Method& m : opencv_methods()) methods.push_back(m);
+    for (const Method& m : methods) {
+      cv::Mat2f flow;
+      const double t = seconds([&] { flow = m.run(pair); });
+      const pg::FlowEvalResult r = pg::evaluate_flow(flow, truth, &occlusion, &invalid);
+      std::printf("  %-6s %-28s EPE %.3f / %.3f   %.2f s\n", pass, m.name.c_str(), r.epe_all,
+                  r.epe_non_occluded, t);
+      (m.ours ? best_ours : best_peer) = std::min(m.ours ? best_ours : best_peer, r.epe_all);
+    }
+    std::printf("  %-6s best pg / best OpenCV EPE ratio: %.3f\n", pass, best_ours / best_peer);
+  }
+}
+
+struct StereoCase {
+  std::string name;
+  fs::path left, right, truth;
+  double truth_scale;  // disparity = stored value / truth_scale; 0 = unknown
+};
+
+struct StereoScore {
+  double bad1 = 0, bad2 = 0, mean = 0, density = 0;
+};
+
+// Disparity -u against the truth over pixels with known truth; NaN estimates are holes.
+StereoScore score_stereo(const cv::Mat2f& flow, const cv::Mat1f& truth) {
+  StereoScore s;
+  std::size_t known = 0, estimated = 0;
+  for (int y = 0; y < truth.rows; ++y)
+    for (int x = 0; x < truth.cols; ++x) {
+      if (!(truth(y, x) > 0)) continue;
+      ++known;
+      const float u = flow(y, x)[0];
+      if (!std::isfinite(u)) continue;
+      ++estimated;
+      const double error = std::abs(-u - truth(y, x));
+      s.bad1 += error > 1, s.bad2 += error > 2, s.mean += error;
+    }
+  s.density = static_cast<double>(estimated) / known;
+  s.bad1 *= 100.0 / estimated, s.bad2 *= 100.0 / estimated, s.mean /= estimated;
+  return s;
+}
+
+cv::Mat2f sgbm(const Pair& pair, int max_disparity) {
+  const int block = 5;
+  const int disparities = (max_disparity / 16 + 1) * 16;
+  auto matcher = cv::StereoSGBM::create(0, disparities, block, 8 * 3 * block * block, 32 * 3 * block * block,
+                                        1, 63, 10, 100, 32, cv::StereoSGBM::MODE_SGBM_3WAY);
+  cv::Mat disparity;
+  matcher->compute(pair.from, pair.to, disparity);
+  cv::Mat2f flow(disparity.size());
+  for (int y = 0; y < flow.rows; ++y)
+    for (int x = 0; x < flow.cols; ++x) {
+      const short d = disparity.at<short>(y, x);
+      flow(y, x) = d < 0 ? cv::Vec2f(NAN, NAN) : cv::Vec2f(-d / 16.f, 0.f);
+    }
+  return flow;
+}
+
+// Rectified pair: the epipolar line of every pixel is its row, nearer points further left.
+pg::EpipolarField rectified_field(cv::Size size) {
+  return {cv::Mat2f(size, cv::Vec2f(0, 0)), cv::Mat2f(size, cv::Vec2f(-1, 0))};
+}
+
+void bench_stereo(const fs::path& data) {
+  std::printf(
+      "\n== Middlebury stereo as flow (left -> right): bad 1px %% / bad 2px %% / mean error px, density\n");
+  const fs::path m = data / "stereo/middlebury";
+  const std::vector<StereoCase> cases = {
+      {"tsukuba", m / "tsukuba/im3.png", m / "tsukuba/im4.png", m / "tsukuba/disp3.pgm", 16},
+      {"venus", m / "venus/im2.png", m / "venus/im6.png", m / "venus/disp2.pgm", 8},
+      {"teddy", m / "teddy/im2.png", m / "teddy/im6.png", m / "teddy/disp2.png", 4},
+      {"aloe", data / "stereo/aloe/aloeL.jpg", data / "stereo/aloe/aloeR.jpg",
+       data / "stereo/aloe/aloeGT.png", 1},
+  };
+  for (const StereoCase& c : cases) {
+    if (!fs::exists(c.truth)) continue;
+    const Pair pair{pg::read_image(c.left, pg::ReadMode::unchanged), pg::read_image(c.right)};
+    cv::Mat1f truth;
+    pg::read_image(c.truth).convertTo(truth, CV_32F, 1.0 / c.truth_scale);
+    double max_disparity = 0;
+    cv::minMaxLoc(truth, nullptr, &max_disparity);
+    std::vector<Method> methods = our_methods();
+    for (const char* preset : {"balanced", "accurate"})
+      methods.push_back({std::string("pg epipolar ") + preset,
+                         [preset](const Pair& p) {
+                           return pg::compute_epipolar_flow(p.from, p.to, rectified_field(p.from.size()),
+                                                            pg::FlowOptions::preset(preset))
+                               .flow;
+                         },
+                         true});
+    for (Method& peer : opencv_methods()) methods.push_back(peer);
+    methods.push_back(
+        {"StereoSGBM", [&](const Pair& p) { return sgbm(p, static_cast<int>(max_disparity) + 4); }});
+    double best_peer = INFINITY, best_ours = INFINITY, best_epipolar = INFINITY;
+    for (const Method& method : methods) {
+      cv::Mat2f flow;
+      const double t = seconds([&] { flow = method.run(pair); });
+      const StereoScore s = score_stereo(flow, truth);
+      std::printf("  %-8s %-28s %6.2f / %6.2f / %5.2f   density %5.1f%%   %.2f s\n", c.name.c_str(),
+                  method.name.c_str(), s.bad1, s.bad2, s.mean, 100 * s.density, t);
+      if (!method.ours) best_peer = std::min(best_peer, s.bad2);
+      if (method.ours) best_ours = std::min(best_ours, s.bad2);
+      if (method.name.find("epipolar") != std::string::npos) best_epipolar = std::min(best_epipolar, s.bad2);
+    }
+    std::printf("  %-8s bad-2px: best pg %.2f%%, best pg epipolar %.2f%%, best OpenCV %.2f%% (ratio %.3f)\n",
+                c.name.c_str(), best_ours, best_epipolar, best_peer, best_ours / best_peer);
+  }
+}
+
+void bench_speed(const fs::path& data) {
+  const fs::path dir = data / "multiview/strecha/Herz-Jesus-P8/images";
+  if (!fs::exists(dir)) return;
+  std::printf("\n== Speed: Herz-Jesus 0000 -> 0001 at 1536x1024 (threads: all)\n");
+  Pair pair;
+  cv::resize(pg::read_image(dir / "0000.jpg"), pair.from, {1536, 1024}, 0, 0, cv::INTER_AREA);
+  cv::resize(pg::read_image(dir / "0001.jpg"), pair.to, {1536, 1024}, 0, 0, cv::INTER_AREA);
+  const double reference = seconds([&] { dis_refined(pair); });
+  std::printf("  %-28s %.2f s\n", "DIS+VariationalRefinement", reference);
+  for (const Method& m : our_methods()) {
+    const double t = seconds([&] { m.run(pair); });
+    std::printf("  %-28s %.2f s   ratio to DIS+VariationalRefinement %.2f\n", m.name.c_str(), t,
+                t / reference);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  fs::path data = pg::build_info::default_data_dir;
+  if (const char* env = std::getenv("PG_DATA_DIR")) data = env;
+  std::set<std::string> only;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--data" && i + 1 < argc)
+      data = argv[++i];
+    else if (arg == "--only" && i + 1 < argc)
+      only.insert(argv[++i]);
+    else {
+      std::cerr << "usage: bench_flow [--data DIR] [--only sintel|stereo|speed]...\n";
+      return 2;
+    }
+  }
+  const auto wanted = [&](const std::string& name) { return only.empty() || only.count(name) > 0; };
+  if (!fs::exists(data)) {
+    std::printf("real data not found at %s: nothing to benchmark\n", data.string().c_str());
+    return 0;
+  }
+  if (wanted("sintel")) bench_sintel(data);
+  if (wanted("stereo")) bench_stereo(data);
+  if (wanted("speed")) bench_speed(data);
+  return 0;
+}

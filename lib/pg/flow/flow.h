@@ -1,0 +1,127 @@
+#pragma once
+// Dense optical flow: our own variational solver, the dense engine of pg-depth, pg-sphdepth and
+// pg-refine.
+//
+// Energy (Brox, Bruhn, Papenberg & Weickert, ECCV 2004), minimised coarse to fine with warping:
+//   E(w) = sum_x  delta * psi(|I2(x + w) - I1(x)|^2 / n_I)                 brightness constancy
+//                + gamma * psi(|grad I2(x + w) - grad I1(x)|^2 / n_G)      gradient constancy
+//                + alpha * g(x) * psi(|grad u|^2 + |grad v|^2)             smoothness
+// with the Charbonnier penalty psi(s^2) = sqrt(s^2 + eps^2), summed over colour channels inside psi,
+// each constancy term normalised by its local gradient energy n = |grad|^2 + zeta^2 (Zimmer et al.
+// 2011, as in DeepFlow) and g(x) an optional image-edge weight exp(-edge_weight * |grad I1|).
+// Each pyramid level runs `warps` outer warps; each warp linearises the data term around the current
+// flow and runs `fixed_point_iterations` lagged-nonlinearity iterations (robust weights frozen), each
+// solved by `sor_iterations` red-black SOR sweeps (2x2 block per pixel, parallel over rows with TBB;
+// results do not depend on the thread count).
+//
+// Combined local-global (Bruhn, Weickert & Schnorr, IJCV 2005): with clg_rho > 0 the per-pixel motion
+// tensors of both constancy terms are integrated with a Gaussian of that scale before the robust
+// penalty (structure-tensor data term): more robust to noise, slightly blurrier at motion boundaries.
+//
+// Epipolar mode (Slesareva, Bruhn & Weickert, DAGM 2005): for a static scene seen by two calibrated
+// cameras, the flow of pixel x is constrained to its epipolar line, w(x) = base(x) + s(x) * dir(x),
+// and the single unknown s (pixels along the line; for a rectified pair, the disparity) is solved
+// with the same energy, the smoothness acting on s. The line field comes from the two cameras
+// (epipolar_field) or from the caller (spherical images, curved lines linearised per pixel).
+//
+// Images: any depth (8-bit, 16-bit, float), 1, 3 or 4 channels (colour used jointly, alpha ignored).
+// Intensities are scaled to [0, 1] (8-bit / 255, 16-bit / 65535, float as given; for HDR set hdr_log,
+// which applies log(1 + x) / log(2) first). Both images must have the same size and channel count. Flow is in
+// pixels of `from`: from(x) ~ to(x + w(x)), CV_32FC2.
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "pg/camera/camera.h"
+
+namespace pg {
+
+struct FlowOptions {
+  // Energy (defaults as DeepFlow's variational stage, which the normalisation makes scale-free).
+  double alpha = 1.0;            // smoothness weight
+  double delta = 0.5;            // brightness constancy weight
+  double gamma = 5.0;            // gradient constancy weight
+  double zeta = 0.1;             // data-term normalisation, intensity units ([0, 1] scale); 0 = off
+  double epsilon = 0.001;        // Charbonnier epsilon, data and smoothness
+  double edge_weight = 0.0;      // > 0: smoothness times exp(-edge_weight * |grad I1|) ([0, 1] scale)
+  double clg_rho = 0.0;          // > 0: combined local-global data term, integration sigma (pixels)
+  double presmooth_sigma = 0.6;  // Gaussian pre-smoothing of both images (pixels, finest level)
+  bool hdr_log = false;          // float HDR input: log(1 + x) / log(2) first
+
+  // Pyramid.
+  double pyramid_factor = 0.9;  // size ratio between levels, in [0.5, 1)
+  int min_side = 16;            // coarsest level's shorter side is at least this
+  int max_levels = 0;           // 0 = as many as min_side allows
+  // Stop at this level and upsample the flow to full size (0 = solve at full resolution). Each level
+  // skipped saves the finest, most expensive work; 1-3 levels cost little accuracy with factor 0.9.
+  int finest_level = 0;
+
+  // Solver.
+  int warps = 1;                   // outer warps per level
+  int fixed_point_iterations = 5;  // lagged-nonlinearity iterations per warp
+  int sor_iterations = 10;         // red-black SOR sweeps per fixed-point iteration
+  double sor_omega = 1.6;          // over-relaxation factor in (0, 2)
+
+  // Throws UsageError naming the first invalid field.
+  void check() const;
+
+  // Named settings: "fast" (close to real time), "balanced" (the default) and "accurate".
+  // Throws UsageError for an unknown name.
+  static FlowOptions preset(const std::string& name);
+};
+
+// Per-pixel epipolar lines of the `from` image in the `to` image: the flow of pixel x is
+// base(x) + s * direction(x), s >= 0 for points in front of both cameras (s = 0: at infinity).
+struct EpipolarField {
+  cv::Mat2f base;       // flow to the image of the point at infinity on x's ray
+  cv::Mat2f direction;  // unit vector along the line, towards nearer points
+  bool empty() const { return base.empty(); }
+};
+
+// The line field for two posed cameras of any model (lines are exact for undistorted perspective
+// cameras; for distorted or equirectangular ones each curve is linearised at infinity, which holds
+// for the small disparities of close views). Pixels whose ray's point at infinity does not project
+// into `to` (behind it) get a NaN base; the solver treats them as having no data term.
+// Throws UsageError when the cameras share their centre (no baseline).
+EpipolarField epipolar_field(const Camera& from, const Camera& to);
+
+// The same field at another image size (pyramid levels, a --scale run): base scaled with the image.
+EpipolarField resize_epipolar_field(const EpipolarField& field, cv::Size size);
+
+// Free 2-D flow from `from` to `to`. `initial` (optional, full size) seeds the coarsest level used.
+// Throws UsageError for empty, mismatched or unsupported images and invalid options.
+cv::Mat2f compute_flow(const cv::Mat& from, const cv::Mat& to, const FlowOptions& options = {},
+                       const cv::Mat2f& initial = {});
+
+struct EpipolarFlow {
+  cv::Mat2f flow;   // base + along * direction
+  cv::Mat1f along;  // s, pixels along the line
+};
+
+// Epipolar-constrained flow: `field` at the images' size (epipolar_field or resize_epipolar_field).
+// `initial_along` (optional) seeds s; without it s starts where the flow along each line is smallest.
+EpipolarFlow compute_epipolar_flow(const cv::Mat& from, const cv::Mat& to, const EpipolarField& field,
+                                   const FlowOptions& options = {}, const cv::Mat1f& initial_along = {});
+
+// Forward-backward consistency: error(x) = |forward(x) + backward(x + forward(x))| (backward sampled
+// bilinearly), NaN where x + forward(x) falls outside the image or either flow is NaN.
+cv::Mat1f forward_backward_error(const cv::Mat2f& forward, const cv::Mat2f& backward);
+
+// Occlusion mask from the consistency error: 255 where error > max_error + relative * |forward|.
+cv::Mat1b occlusion_mask(const cv::Mat1f& fb_error, const cv::Mat2f& forward, double max_error = 1.0,
+                         double relative = 0.05);
+
+struct BidirectionalFlow {
+  cv::Mat2f forward, backward;
+  cv::Mat1f fb_error;  // forward_backward_error(forward, backward)
+  cv::Mat1b occluded;  // occlusion_mask(fb_error, forward)
+};
+
+// Forward and backward flow (free 2-D), with the consistency check.
+BidirectionalFlow compute_flow_bidirectional(const cv::Mat& from, const cv::Mat& to,
+                                             const FlowOptions& options = {});
+// Forward and backward epipolar flow between two posed cameras' images.
+BidirectionalFlow compute_epipolar_flow_bidirectional(const cv::Mat& from, const cv::Mat& to,
+                                                      const Camera& from_camera, const Camera& to_camera,
+                                                      const FlowOptions& options = {});
+
+}  // namespace pg

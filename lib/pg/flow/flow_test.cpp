@@ -1,0 +1,180 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+#include "pg/core/error.h"
+#include "pg/eval/flo_io.h"
+#include "pg/eval/flow_eval.h"
+#include "pg/flow/flow.h"
+#include "pg/flow/flow_color.h"
+#include "pg/image/image_io.h"
+#include "pg/testing/testing.h"
+
+namespace {
+
+// A smooth random colour texture (blurred noise), 8-bit.
+cv::Mat3b texture(cv::Size size, int seed) {
+  cv::Mat3f noise(size);
+  cv::RNG rng(seed);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 1);
+  cv::GaussianBlur(noise, noise, {0, 0}, 2.0);
+  cv::Mat3b out;
+  cv::normalize(noise, noise, 0, 255, cv::NORM_MINMAX);
+  noise.convertTo(out, CV_8U);
+  return out;
+}
+
+// `image` moved by (dx, dy): out(x + d) = image(x).
+cv::Mat shifted(const cv::Mat& image, double dx, double dy) {
+  cv::Mat out;
+  const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, dx, 0, 1, dy);
+  cv::warpAffine(image, out, m, image.size(), cv::INTER_CUBIC, cv::BORDER_REFLECT);
+  return out;
+}
+
+double mean_error(const cv::Mat2f& flow, cv::Vec2f truth, int margin) {
+  double sum = 0;
+  int n = 0;
+  for (int y = margin; y < flow.rows - margin; ++y)
+    for (int x = margin; x < flow.cols - margin; ++x, ++n) sum += cv::norm(flow(y, x) - truth);
+  return sum / n;
+}
+
+TEST(Flow, RecoversATranslationToATenthOfAPixel) {
+  const cv::Mat3b a = texture({160, 120}, 1);
+  const cv::Mat b = shifted(a, 2.3, -1.4);
+  EXPECT_LT(mean_error(pg::compute_flow(a, b), {2.3f, -1.4f}, 12), 0.08);
+  // The combined local-global data term and grey input recover it too.
+  pg::FlowOptions clg;
+  clg.clg_rho = 1.5;
+  cv::Mat grey_a, grey_b;
+  cv::cvtColor(a, grey_a, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(b, grey_b, cv::COLOR_BGR2GRAY);
+  EXPECT_LT(mean_error(pg::compute_flow(grey_a, grey_b, clg), {2.3f, -1.4f}, 12), 0.08);
+}
+
+TEST(Flow, FloatAndHdrInputsGiveTheSameFlow) {
+  const cv::Mat3b a = texture({120, 90}, 2);
+  const cv::Mat b = shifted(a, -1.7, 0.6);
+  cv::Mat3f fa, fb;
+  a.convertTo(fa, CV_32F, 1.0 / 255);
+  b.convertTo(fb, CV_32F, 1.0 / 255);
+  const cv::Mat2f from_8bit = pg::compute_flow(a, b), from_float = pg::compute_flow(fa, fb);
+  EXPECT_LT(cv::norm(from_8bit, from_float, cv::NORM_INF), 1e-3);
+  pg::FlowOptions hdr;
+  hdr.hdr_log = true;
+  EXPECT_LT(mean_error(pg::compute_flow(cv::Mat(fa * 40.0), cv::Mat(fb * 40.0), hdr), {-1.7f, 0.6f}, 10),
+            0.08);
+}
+
+TEST(Flow, EpipolarModeSolvesAlongRectifiedLines) {
+  const cv::Mat3b a = texture({160, 120}, 3);
+  const cv::Mat b = shifted(a, -4.6, 0);  // disparity 4.6 to the left
+  const pg::EpipolarField field{cv::Mat2f(a.size(), cv::Vec2f(0, 0)), cv::Mat2f(a.size(), cv::Vec2f(-1, 0))};
+  const pg::EpipolarFlow result = pg::compute_epipolar_flow(a, b, field);
+  double sum = 0;
+  for (int y = 12; y < a.rows - 12; ++y)
+    for (int x = 12; x < a.cols - 12; ++x) sum += std::abs(result.along(y, x) - 4.6);
+  EXPECT_LT(sum / ((a.rows - 24) * (a.cols - 24)), 0.04);
+  EXPECT_FLOAT_EQ(result.flow(60, 80)[1], 0.f);
+  EXPECT_FLOAT_EQ(result.flow(60, 80)[0], -result.along(60, 80));
+}
+
+TEST(Flow, EpipolarFieldPutsEveryDepthOnTheLine) {
+  pg::Camera a, b;
+  a.id = "a", b.id = "b";
+  a.width = b.width = 64, a.height = b.height = 48;
+  a.intrinsics = b.intrinsics = {60, 60, 31.5, 23.5};
+  b.cam_from_world.rotation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.1, Eigen::Vector3d(0.2, 1, 0.1).normalized()));
+  b.cam_from_world.translation = {-0.5, 0.05, 0.1};
+  const pg::EpipolarField field = pg::epipolar_field(a, b);
+  for (const auto& [x, y] : {std::pair{10, 10}, std::pair{40, 30}, std::pair{60, 5}})
+    for (double depth : {1.0, 3.0, 20.0}) {
+      const Eigen::Vector3d ray = a.unproject(Eigen::Vector2d(x, y));
+      Eigen::Vector2d q;
+      ASSERT_TRUE(b.project(b.cam_from_world * (ray / ray.z() * depth), q));
+      const cv::Vec2f flow(static_cast<float>(q.x() - x), static_cast<float>(q.y() - y));
+      const cv::Vec2f offset = flow - field.base(y, x), d = field.direction(y, x);
+      EXPECT_NEAR(offset[0] * d[1] - offset[1] * d[0], 0, 1e-3);  // on the line
+      EXPECT_GT(offset.dot(d), 0);                                // nearer than infinity
+    }
+  pg::Camera twin = a;
+  EXPECT_THROW(pg::epipolar_field(a, twin), pg::UsageError);
+  EXPECT_EQ(pg::resize_epipolar_field(field, {32, 24}).base.size(), cv::Size(32, 24));
+}
+
+TEST(Flow, ForwardBackwardErrorAndOcclusions) {
+  cv::Mat2f forward(20, 30, cv::Vec2f(2, 1)), backward(20, 30, cv::Vec2f(-2, -1));
+  backward(11, 12) = cv::Vec2f(3, 3);  // an inconsistent vector, sampled by forward pixel (10, 10)
+  const cv::Mat1f error = pg::forward_backward_error(forward, backward);
+  EXPECT_FLOAT_EQ(error(0, 0), 0.f);
+  EXPECT_NEAR(error(10, 10), std::hypot(5.0, 4.0), 1e-5);
+  EXPECT_TRUE(std::isnan(error(19, 29)));  // leaves the image
+  const cv::Mat1b occluded = pg::occlusion_mask(error, forward);
+  EXPECT_EQ(occluded(0, 0), 0);
+  EXPECT_EQ(occluded(10, 10), 255);
+  EXPECT_EQ(occluded(19, 29), 255);
+}
+
+TEST(Flow, RejectsBadInputsAndOptions) {
+  const cv::Mat3b a = texture({40, 30}, 4);
+  EXPECT_THROW(pg::compute_flow(a, cv::Mat3b(31, 40)), pg::UsageError);
+  EXPECT_THROW(pg::compute_flow(a, cv::Mat()), pg::UsageError);
+  pg::FlowOptions bad;
+  bad.pyramid_factor = 1.0;
+  EXPECT_THROW(pg::compute_flow(a, a, bad), pg::UsageError);
+  bad = {};
+  bad.sor_omega = 2.0;
+  EXPECT_THROW(bad.check(), pg::UsageError);
+  EXPECT_THROW(pg::FlowOptions::preset("fastest"), pg::UsageError);
+  EXPECT_NO_THROW(pg::FlowOptions::preset("accurate").check());
+}
+
+TEST(FlowColor, WhiteForNoMotionBlackForUnknownHueForDirection) {
+  cv::Mat2f flow(1, 4);
+  flow(0, 0) = {0, 0};
+  flow(0, 1) = {NAN, 0};
+  flow(0, 2) = {1, 0};   // right: red in the Middlebury wheel
+  flow(0, 3) = {-1, 0};  // left: cyan
+  const cv::Mat3b c = pg::flow_to_color(flow, 1.0);
+  EXPECT_EQ(c(0, 0), cv::Vec3b(255, 255, 255));
+  EXPECT_EQ(c(0, 1), cv::Vec3b(0, 0, 0));
+  EXPECT_GT(c(0, 2)[2], 200);  // BGR: strong red
+  EXPECT_LT(c(0, 2)[0], 60);
+  EXPECT_GT(c(0, 3)[0], 150);  // blue and green, little red
+  EXPECT_LT(c(0, 3)[2], 60);
+}
+
+TEST(FlowRealData, SintelAlleyCleanEndPointError) {
+  PG_REQUIRE_REAL_DATA(dir, "flow/sintel/clean/alley_1");
+  const cv::Mat a = pg::read_image(dir / "frame_0002.png"), b = pg::read_image(dir / "frame_0003.png");
+  const cv::Mat1b occlusion = pg::read_image(dir / "gt/occlusions/frame_0002.png");
+  const cv::Mat1b invalid = pg::read_image(dir / "gt/invalid/frame_0002.png");
+  const pg::FlowEvalResult r =
+      pg::evaluate_flow(pg::compute_flow(a, b, pg::FlowOptions::preset("fast")),
+                        pg::read_flo(dir / "gt/frame_0002.flo"), &occlusion, &invalid);
+  RecordProperty("epe_all", std::to_string(r.epe_all));
+  EXPECT_LT(r.epe_all, 0.40);  // the fast preset; the benchmark reports the others against OpenCV
+  EXPECT_LT(r.epe_non_occluded, 0.33);
+  EXPECT_EQ(r.coverage, 1.0);
+}
+
+TEST(FlowRealData, MiddleburyVenusAsEpipolarStereo) {
+  PG_REQUIRE_REAL_DATA(dir, "stereo/middlebury/venus");
+  const cv::Mat a = pg::read_image(dir / "im2.png"), b = pg::read_image(dir / "im6.png");
+  cv::Mat1f truth;
+  pg::read_image(dir / "disp2.pgm").convertTo(truth, CV_32F, 1.0 / 8);
+  const pg::EpipolarField field{cv::Mat2f(a.size(), cv::Vec2f(0, 0)), cv::Mat2f(a.size(), cv::Vec2f(-1, 0))};
+  const pg::EpipolarFlow result = pg::compute_epipolar_flow(a, b, field, pg::FlowOptions::preset("fast"));
+  std::size_t known = 0, bad = 0;
+  for (int y = 0; y < truth.rows; ++y)
+    for (int x = 0; x < truth.cols; ++x)
+      if (truth(y, x) > 0) ++known, bad += std::abs(result.along(y, x) - truth(y, x)) > 2;
+  const double bad_2px = static_cast<double>(bad) / known;
+  RecordProperty("bad_2px", std::to_string(bad_2px));
+  EXPECT_LT(bad_2px, 0.07);  // 5.6% measured with the fast preset
+}
+
+}  // namespace

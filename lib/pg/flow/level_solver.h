@@ -1,0 +1,67 @@
+#pragma once
+// Internal: one pyramid level of the variational flow solver (see flow.h for the energy).
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "pg/flow/flow.h"
+
+namespace pg::flow_detail {
+
+// The smoothness weights around one row: to the right, below and above each pixel (zero at borders).
+struct RowWeights {
+  const float* right;
+  const float* down;
+  const float* up;
+  float left(int x) const { return x > 0 ? right[x - 1] : 0.f; }
+  float total(int x) const { return left(x) + right[x] + down[x] + up[x]; }
+};
+
+// One channel of one image at one level with the derivatives the data term needs.
+struct ImageDerivatives {
+  cv::Mat1f image, x, y, xx, xy, yy;
+};
+
+// Both images at one level, channel by channel, and the smoothness weight of each pixel.
+struct LevelImages {
+  std::vector<ImageDerivatives> from, to;
+  cv::Mat1f smoothness;  // alpha * g(x)
+  cv::Size size() const { return from.front().image.size(); }
+};
+
+// Derivatives of both images and the smoothness weight for one level.
+LevelImages prepare_level(const std::vector<cv::Mat1f>& from, const std::vector<cv::Mat1f>& to,
+                          const FlowOptions& options);
+
+// Solves one level: warps, lagged fixed-point iterations and red-black SOR. Buffers are allocated
+// once per level; the per-pixel loops allocate nothing.
+class LevelSolver {
+ public:
+  LevelSolver(const LevelImages& images, const FlowOptions& options);
+
+  // Free 2-D flow (u, v), refined in place.
+  void solve(cv::Mat1f& u, cv::Mat1f& v);
+  // Flow base + s * direction; s refined in place. NaN base: no data term there.
+  void solve_along(cv::Mat1f& s, const cv::Mat2f& base, const cv::Mat2f& direction);
+
+ private:
+  // Warps `to` by (u, v) and fills the per-pixel motion tensors (blurred in CLG mode).
+  void compute_tensors(const cv::Mat1f& u, const cv::Mat1f& v);
+  // Smoothness edge weights from the gradient of a + da (and b + db when b is non-empty).
+  void compute_smoothness(const cv::Mat1f& a, const cv::Mat1f& da, const cv::Mat1f& b, const cv::Mat1f& db);
+
+  RowWeights row_weights(int y) const;
+
+  const LevelImages& images_;
+  const FlowOptions& options_;
+  int rows_, cols_;
+  // Motion tensors of brightness (b..) and gradient (g..) constancy: entries 11 12 22 13 23 33 of
+  // the quadratic form w^T J w in w = (du, dv, 1), already normalised and summed over channels.
+  cv::Mat1f b11_, b12_, b22_, b13_, b23_, b33_, g11_, g12_, g22_, g13_, g23_, g33_;
+  cv::Mat1f psi_;                         // smoothness weight of each pixel
+  cv::Mat1f weight_right_, weight_down_;  // smoothness weight between x and its right / lower neighbour
+  std::vector<float> zero_row_;           // weights above the first row
+  cv::Mat1f du_, dv_;                     // increments of the current warp
+  cv::Mat1f a11_inv_, a22_inv_, a12_, rhs1_, rhs2_;  // the linear system of the current iteration
+};
+
+}  // namespace pg::flow_detail

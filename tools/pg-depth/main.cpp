@@ -1,0 +1,216 @@
+// pg-depth: depth maps from image pairs by variational optical flow and triangulation.
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+
+#include "common/cli.h"
+#include "pg/camera/cameras_io.h"
+#include "pg/core/error.h"
+#include "pg/core/log.h"
+#include "pg/core/provenance.h"
+#include "pg/core/run_report.h"
+#include "pg/depth/depth_geometry.h"
+#include "pg/depth/depth_pair.h"
+#include "pg/flow/flow_color.h"
+#include "pg/image/depth_exr.h"
+#include "pg/image/image_io.h"
+#include "pg/mesh/mesh_io.h"
+#include "pg/mesh/point_cloud.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Options {
+  std::string cameras, out_dir, masks, range, preset = "balanced", mode = "epipolar";
+  std::vector<std::string> pairs;
+  double scale = 1.0, alpha = 0, pyramid_factor = 0, clg_rho = 0;
+  bool keep_all = false, ply = false, mesh = false, preview = false, flow_png = false;
+  pg::DepthFilterOptions filter;
+};
+
+struct PairIds {
+  std::string reference, other;
+};
+
+std::vector<PairIds> parse_pairs(const Options& o, const pg::CameraSet& set) {
+  std::vector<PairIds> pairs;
+  for (const std::string& text : o.pairs) {
+    const auto colon = text.find(':');
+    if (colon == std::string::npos) throw pg::UsageError("--pair '" + text + "': expected REF:OTHER");
+    pairs.push_back({text.substr(0, colon), text.substr(colon + 1)});
+  }
+  if (pairs.empty())  // consecutive cameras in file order
+    for (std::size_t i = 0; i + 1 < set.cameras.size(); ++i)
+      pairs.push_back({set.cameras[i].id, set.cameras[i + 1].id});
+  for (const PairIds& p : pairs)
+    for (const std::string& id : {p.reference, p.other})
+      if (!set.find(id)) throw pg::InputError(o.cameras, "no camera '" + id + "' (named by a pair)");
+  if (!o.range.empty()) {  // START,COUNT for a farm chunk
+    std::size_t start = 0, count = 0;
+    char comma = 0;
+    std::istringstream in(o.range);
+    if (!(in >> start >> comma >> count) || comma != ',' || !in.eof())
+      throw pg::UsageError("--range '" + o.range + "': expected START,COUNT");
+    if (start >= pairs.size())
+      throw pg::UsageError(pg::str("--range starts at ", start, " but there are ", pairs.size(), " pairs"));
+    pairs = std::vector<PairIds>(pairs.begin() + static_cast<long>(start),
+                                 pairs.begin() + static_cast<long>(std::min(pairs.size(), start + count)));
+  }
+  return pairs;
+}
+
+fs::path image_path(const fs::path& cameras_file, const pg::Camera& camera) {
+  if (camera.image.empty()) throw pg::InputError(cameras_file, "camera '" + camera.id + "' names no image");
+  const fs::path image = camera.image;
+  return image.is_absolute() ? image : cameras_file.parent_path() / image;
+}
+
+cv::Mat1b read_mask(const Options& o, const pg::Camera& camera) {
+  if (o.masks.empty()) return {};
+  const fs::path path = fs::path(o.masks) / (camera.id + ".png");
+  if (!fs::exists(path)) return {};
+  cv::Mat1b mask = pg::read_image(path, pg::ReadMode::unchanged);
+  if (mask.cols != camera.width || mask.rows != camera.height)
+    throw pg::InputError(path, pg::str("mask is ", mask.cols, "x", mask.rows, " but camera '", camera.id,
+                                       "' is ", camera.width, "x", camera.height));
+  return mask;
+}
+
+cv::Mat read_view(const fs::path& path, const pg::Camera& camera) {
+  cv::Mat image = pg::read_image(path);
+  if (image.cols != camera.width || image.rows != camera.height)
+    throw pg::InputError(path, pg::str("image is ", image.cols, "x", image.rows, " but camera '", camera.id,
+                                       "' is ", camera.width, "x", camera.height));
+  return image;
+}
+
+pg::DepthPairOptions pair_options(const Options& o) {
+  pg::DepthPairOptions options;
+  options.flow = pg::FlowOptions::preset(o.preset);
+  if (o.alpha > 0) options.flow.alpha = o.alpha;
+  if (o.pyramid_factor > 0) options.flow.pyramid_factor = o.pyramid_factor;
+  options.flow.clg_rho = o.clg_rho;
+  if (o.mode != "epipolar" && o.mode != "free") throw pg::UsageError("--mode must be epipolar or free");
+  options.epipolar = o.mode == "epipolar";
+  options.scale = o.scale;
+  options.filter = o.filter;
+  options.filter.keep_all = o.keep_all;
+  options.check();
+  return options;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  pg::cli::Frame frame(
+      {"pg-depth", "depth maps of image pairs by variational optical flow and triangulation",
+       "  pg-depth --cameras shot/synth/cameras.json --out-dir shot/depth --preview\n"
+       "  pg-depth --cameras c.json --pair view_000:view_001 --scale 0.5 --ply --mesh --out-dir d\n"
+       "  pg-depth --cameras c.json --range 8,4 --out-dir d      # pairs 8..11 (a farm chunk)"});
+  Options o;
+  CLI::App& app = frame.app();
+  app.add_option("--cameras", o.cameras, "cameras file (pg-cameras); images are its cameras' \"image\" paths")
+      ->required();
+  app.add_option("--out-dir", o.out_dir, "folder for REF-OTHER.exr (and the optional outputs)")->required();
+  app.add_option("--pair", o.pairs,
+                 "REF:OTHER camera ids (repeatable); default: consecutive cameras in file order");
+  app.add_option("--range", o.range, "START,COUNT: only these pairs of the list (farm chunks)");
+  app.add_option("--masks", o.masks, "folder of masks <camera id>.png, nonzero = ignore");
+  app.add_option("--mode", o.mode, "flow mode: epipolar (static scenes, default) or free 2-D flow");
+  app.add_option("--preset", o.preset, "flow settings: fast, balanced (default) or accurate");
+  app.add_option("--alpha", o.alpha, "flow smoothness weight (default from the preset: 1)");
+  app.add_option("--pyramid-factor", o.pyramid_factor, "size ratio between pyramid levels, in [0.5, 1)");
+  app.add_option("--clg", o.clg_rho, "combined local-global data term with this integration sigma (pixels)");
+  app.add_option("--scale", o.scale, "resolution of the computation relative to the images, in (0, 1]");
+  app.add_option("--min-angle", o.filter.min_triangulation_angle_deg,
+                 "minimum triangulation angle, degrees (1)");
+  app.add_option("--max-fb-error", o.filter.max_fb_error, "forward-backward flow error limit, pixels (1)");
+  app.add_option("--max-grazing", o.filter.max_grazing_angle_deg,
+                 "maximum normal-to-ray angle, degrees (80)");
+  app.add_option("--max-depth-jump", o.filter.max_depth_jump,
+                 "relative depth step marking a discontinuity (0.04)");
+  app.add_flag("--keep-all", o.keep_all,
+               "keep every triangulated depth; rejections only zero the confidence");
+  app.add_flag("--ply", o.ply, "also write REF-OTHER.ply: the valid points with normals and colours");
+  app.add_flag("--mesh", o.mesh, "also write REF-OTHER-mesh.ply: the mesh of the depth grid");
+  app.add_flag("--preview", o.preview, "also write REF-OTHER-depth.png: a colour-mapped depth preview");
+  app.add_flag("--flow-png", o.flow_png,
+               "also write REF-OTHER-flow.png: the flow (formats/flow-visualisation.md)");
+  return frame.run(argc, argv, [&] {
+    frame.input(o.cameras);
+    frame.output_dir(o.out_dir);
+    const pg::DepthPairOptions options = pair_options(o);
+    const pg::CameraSet set = pg::read_cameras(o.cameras);
+    const std::vector<PairIds> pairs = parse_pairs(o, set);
+    const fs::path out_dir = o.out_dir;
+    std::size_t valid = 0, total = 0;
+    double flow_seconds = 0, triangulation_seconds = 0;
+    for (const PairIds& ids : pairs) {
+      pg::DepthPairInput input;
+      input.reference = *set.find(ids.reference);
+      input.other = *set.find(ids.other);
+      if ((input.reference.cam_from_world.centre() - input.other.cam_from_world.centre()).norm() == 0)
+        throw pg::InputError(o.cameras, "cameras '" + ids.reference + "' and '" + ids.other +
+                                            "' have the same centre: no baseline to triangulate");
+      const fs::path ref_path = image_path(o.cameras, input.reference);
+      const fs::path other_path = image_path(o.cameras, input.other);
+      frame.input(ref_path);
+      frame.input(other_path);
+      input.reference_image = read_view(ref_path, input.reference);
+      input.other_image = read_view(other_path, input.other);
+      input.reference_mask = read_mask(o, input.reference);
+      input.other_mask = read_mask(o, input.other);
+      if (input.reference_image.channels() != input.other_image.channels())
+        throw pg::InputError(other_path, "has a different channel count from " + ref_path.string());
+
+      pg::DepthPairResult result = pg::compute_depth_pair(input, options);
+      result.depth.map.provenance = pg::Provenance::current();
+      const std::string stem = ids.reference + "-" + ids.other;
+      const fs::path exr = out_dir / (stem + ".exr");
+      frame.output(exr);
+      pg::write_depth_exr(exr, result.depth.map);
+      const cv::Mat colours =
+          input.reference_image.depth() == CV_8U && options.scale == 1 ? input.reference_image : cv::Mat();
+      if (o.ply) {
+        const fs::path path = out_dir / (stem + ".ply");
+        frame.output(path);
+        pg::PointCloud cloud = pg::depth_point_cloud(result.depth.map, colours);
+        cloud.provenance = pg::Provenance::current();
+        pg::write_point_cloud_ply(path, cloud);
+      }
+      if (o.mesh) {
+        const fs::path path = out_dir / (stem + "-mesh.ply");
+        frame.output(path);
+        pg::Mesh mesh = pg::depth_grid_mesh(result.depth.map, colours);
+        mesh.provenance = pg::Provenance::current();
+        pg::write_mesh(path, mesh);
+      }
+      if (o.preview) {
+        const fs::path path = out_dir / (stem + "-depth.png");
+        frame.output(path);
+        pg::write_depth_preview_png(path, result.depth.map);
+      }
+      if (o.flow_png) {
+        const fs::path path = out_dir / (stem + "-flow.png");
+        frame.output(path);
+        pg::write_image(path, pg::flow_to_color(result.flow));
+      }
+      const auto& r = result.depth.rejections;
+      pg::log::info(pg::str(stem, ": ", result.depth.valid, " valid pixels (",
+                            100 * result.depth.valid_fraction(), "%); rejected: masked ", r.masked,
+                            ", untriangulated ", r.untriangulated, ", inconsistent ", r.inconsistent,
+                            ", small angle ", r.small_angle, ", epipolar ", r.epipolar, ", grazing ",
+                            r.grazing, ", discontinuity ", r.discontinuity));
+      valid += result.depth.valid;
+      total += result.depth.map.depth.total();
+      flow_seconds += result.flow_seconds;
+      triangulation_seconds += result.triangulation_seconds;
+    }
+    pg::RunReport& report = pg::RunReport::global();
+    report.set_metric("pairs", pairs.size());
+    report.set_metric("valid_fraction", total > 0 ? static_cast<double>(valid) / total : 0.0);
+    report.add_timing("flow", flow_seconds);
+    report.add_timing("triangulation", triangulation_seconds);
+  });
+}
