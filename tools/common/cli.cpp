@@ -60,6 +60,7 @@ Frame::Frame(ToolInfo info) : info_(std::move(info)), app_(info_.summary, info_.
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "lines", "off"}));
   app_.footer("Example:\n" + info_.example + "\n\n" + exit_code_help());
+  app_.fallthrough();  // the common flags also work after a subcommand: `pg-x run --threads 2`
 }
 
 void Frame::input(const fs::path& path) {

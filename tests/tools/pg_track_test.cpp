@@ -1,0 +1,153 @@
+// pg-track on the synthetic orbit from pg-synth (exact ground truth): accuracy after similarity
+// alignment, self-calibration of the focal length, the outputs, and the errors for bad input.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "pg/camera/cameras_io.h"
+#include "pg/eval/camera_eval.h"
+#include "pg/mesh/point_cloud.h"
+#include "pg/testing/testing.h"
+
+namespace fs = std::filesystem;
+using pg::testing::run_tool;
+using pg::testing::TempDir;
+
+namespace {
+
+// One orbit scene for the whole suite (rendering it is the slow part).
+class PgTrack : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    scene_ = new TempDir;
+    const auto r = run_tool("pg-synth", {"set", "--out", scene().string()});
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  }
+  static void TearDownTestSuite() {
+    delete scene_;
+    scene_ = nullptr;
+  }
+  static fs::path scene() { return scene_->path(); }
+
+  static double path_extent(const pg::CameraSet& set) {
+    double extent = 0;
+    for (const pg::Camera& a : set.cameras)
+      for (const pg::Camera& b : set.cameras)
+        extent = std::max(extent, (a.cam_from_world.centre() - b.cam_from_world.centre()).norm());
+    return extent;
+  }
+
+ private:
+  static TempDir* scene_;
+};
+TempDir* PgTrack::scene_ = nullptr;
+
+TEST_F(PgTrack, OrbitWithExactIntrinsicsMeetsTheAccuracyTargets) {
+  TempDir out;
+  const auto r = run_tool("pg-track", {"--images", (scene() / "images").string(), "--cameras",
+                                       (scene() / "cameras.json").string(), "--out", out.path().string(), "--report",
+                                       (out / "report.json").string()});
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const pg::CameraSet truth = pg::read_cameras(scene() / "cameras.json");
+  const pg::CameraSet estimate = pg::read_cameras(out / "cameras.json");
+  ASSERT_EQ(estimate.cameras.size(), truth.cameras.size());
+  const pg::CameraEvalResult eval = pg::evaluate_cameras(estimate, truth);
+  const double extent = path_extent(truth);
+  std::cout << "[ measured ] synthetic orbit, exact intrinsics: centre error median "
+            << 100 * eval.centre_error.median / extent << "% max " << 100 * eval.centre_error.max / extent
+            << "% of the path extent, rotation median " << eval.rotation_error_deg.median << " deg max "
+            << eval.rotation_error_deg.max << " deg\n";
+  EXPECT_LT(eval.centre_error.median, 0.001 * extent);
+  EXPECT_LT(eval.centre_error.max, 0.002 * extent);
+  EXPECT_LT(eval.rotation_error_deg.median, 0.05);
+  EXPECT_LT(eval.rotation_error_deg.max, 0.1);
+  for (const pg::Camera& c : estimate.cameras) {
+    ASSERT_TRUE(c.quality.has_value());
+    EXPECT_GT(*c.quality, 0.5) << c.id;
+  }
+
+  // The sparse points lie on the true surface: after the same alignment, they sit within the scene.
+  const pg::PointCloud points = pg::read_point_cloud_ply(out / "points.ply");
+  EXPECT_GT(points.size(), 1000u);
+  ASSERT_EQ(points.track_length.size(), points.size());
+  for (std::uint32_t length : points.track_length) EXPECT_GE(length, 2u);
+
+  // The tracks file names every frame and links reconstructed tracks to points.
+  const nlohmann::json tracks = nlohmann::json::parse(pg::testing::read_text(out / "tracks.json"));
+  EXPECT_EQ(tracks["format"], "pg-tracks");
+  EXPECT_EQ(tracks["frames"].size(), 16u);
+  std::size_t with_point = 0;
+  for (const auto& t : tracks["tracks"])
+    if (t.contains("point")) ++with_point;
+  EXPECT_EQ(with_point, points.size());
+
+  const nlohmann::json report = nlohmann::json::parse(pg::testing::read_text(out / "report.json"));
+  EXPECT_EQ(report["metrics"]["registered"], 16);
+  EXPECT_LT(report["metrics"]["reprojection_rms_px"].get<double>(), 0.5);
+  EXPECT_TRUE(fs::exists(out / "top_view.png"));
+}
+
+TEST_F(PgTrack, OrbitSelfCalibratesTheFocalLength) {
+  TempDir out;
+  const auto r = run_tool("pg-track", {"--images", (scene() / "images").string(), "--out", out.path().string()});
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const pg::CameraSet truth = pg::read_cameras(scene() / "cameras.json");
+  const pg::CameraSet estimate = pg::read_cameras(out / "cameras.json");
+  ASSERT_EQ(estimate.cameras.size(), truth.cameras.size());
+  const pg::CameraEvalResult eval = pg::evaluate_cameras(estimate, truth);
+  std::cout << "[ measured ] synthetic orbit, self-calibrated: focal error " << 100 * eval.focal_relative_error.max
+            << "% (started from " << 1.2 * 640 << " px), centre error median "
+            << 100 * eval.centre_error.median / path_extent(truth) << "%\n";
+  EXPECT_LT(eval.focal_relative_error.max, 0.005);
+  EXPECT_LT(eval.centre_error.median, 0.001 * path_extent(truth));
+}
+
+TEST_F(PgTrack, RangeTracksASubSequence) {
+  TempDir out;
+  const auto r = run_tool("pg-track", {"--images", (scene() / "images").string(), "--cameras",
+                                       (scene() / "cameras.json").string(), "--range", "2:5", "--out",
+                                       out.path().string()});
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const pg::CameraSet estimate = pg::read_cameras(out / "cameras.json");
+  ASSERT_EQ(estimate.cameras.size(), 5u);
+  EXPECT_EQ(estimate.cameras.front().id, "view_002");
+  EXPECT_EQ(estimate.cameras.back().id, "view_006");
+}
+
+TEST_F(PgTrack, FewerThanTwoImagesIsAUsageError) {
+  TempDir out;
+  const auto r = run_tool("pg-track", {"--images", (scene() / "images" / "view_000.png").string(), "--out",
+                                       out.path().string()});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.stderr_text.find("at least 2 images"), std::string::npos) << r.stderr_text;
+}
+
+TEST_F(PgTrack, ImagesOfDifferentSizesUnderOneCameraNameTheFrames) {
+  TempDir in, out;
+  for (int i = 0; i < 3; ++i) {
+    const std::string name = "view_00" + std::to_string(i) + ".png";
+    cv::Mat image = cv::imread((scene() / "images" / name).string());
+    if (i == 2) cv::resize(image, image, cv::Size(480, 360));
+    cv::imwrite((in / name).string(), image);
+  }
+  const auto r = run_tool("pg-track", {"--images", in.path().string(), "--out", out.path().string()});
+  EXPECT_EQ(r.exit_code, 3) << r.stderr_text;
+  EXPECT_NE(r.stderr_text.find("view_002"), std::string::npos) << r.stderr_text;
+  EXPECT_NE(r.stderr_text.find("different sizes"), std::string::npos) << r.stderr_text;
+}
+
+TEST_F(PgTrack, UnrelatedImagesFailNamingTheProblem) {
+  TempDir in, out;
+  cv::Mat noise_a(480, 640, CV_8UC1), noise_b(480, 640, CV_8UC1);
+  cv::randu(noise_a, 0, 255);
+  cv::randu(noise_b, 0, 255);
+  cv::imwrite((in / "a.png").string(), noise_a);
+  cv::imwrite((in / "b.png").string(), noise_b);
+  const auto r = run_tool("pg-track", {"--images", in.path().string(), "--out", out.path().string()});
+  EXPECT_EQ(r.exit_code, 4) << r.stderr_text;
+  EXPECT_NE(r.stderr_text.find("do not overlap"), std::string::npos) << r.stderr_text;
+}
+
+}  // namespace
