@@ -1,0 +1,1 @@
+pg_add_bench(bench_calib SOURCES bench_calib.cpp DEPS pg_calib)
