@@ -1,0 +1,247 @@
+#include "pg/refine/pair_estimate.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+
+#include "pg/core/error.h"
+#include "pg/core/parallel.h"
+#include "pg/image/image_io.h"
+
+namespace pg {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+float sample_bilinear(const cv::Mat1f& image, double x, double y) {
+  const double fx = std::floor(x), fy = std::floor(y);
+  const float ax = float(x - fx), ay = float(y - fy);
+  const int x0 = std::clamp(int(fx), 0, image.cols - 1), x1 = std::clamp(int(fx) + 1, 0, image.cols - 1);
+  const int y0 = std::clamp(int(fy), 0, image.rows - 1), y1 = std::clamp(int(fy) + 1, 0, image.rows - 1);
+  const float top = image(y0, x0) * (1 - ax) + image(y0, x1) * ax;
+  const float bottom = image(y1, x0) * (1 - ax) + image(y1, x1) * ax;
+  return top * (1 - ay) + bottom * ay;
+}
+
+// The surface point a pixel of `buffers` sees (the buffers must hold a hit there).
+Eigen::Vector3d hit_point(const Mesh& mesh, const RenderBuffers& buffers, std::size_t i) {
+  const auto& f = mesh.faces[buffers.triangle[i]];
+  const double w1 = buffers.b1[i], w2 = buffers.b2[i];
+  return (1 - w1 - w2) * mesh.positions[f[0]].cast<double>() + w1 * mesh.positions[f[1]].cast<double>() +
+         w2 * mesh.positions[f[2]].cast<double>();
+}
+
+Eigen::Vector3d face_normal(const Mesh& mesh, std::uint32_t triangle) {
+  const auto& f = mesh.faces[triangle];
+  const Eigen::Vector3d p0 = mesh.positions[f[0]].cast<double>();
+  return (mesh.positions[f[1]].cast<double>() - p0)
+      .cross(mesh.positions[f[2]].cast<double>() - p0)
+      .normalized();
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The epipolar line of each synthetic-B pixel: the B image of A's ray through the surface point the
+// pixel shows. base: from the pixel to the image of the ray's point at infinity; direction: towards
+// the pixel (nearer points); along: the current distance, so the flow starts at zero. Pixels without
+// a line (not co-visible) borrow the point at infinity of the nearest pixel with one: their line
+// still passes through them with zero flow, so the smoothness of `along` sees no false edge there.
+void surface_epipolar_field(const Mesh& mesh, const RefineViewState& a, const RefineViewState& b,
+                            const SyntheticView& synthetic, EpipolarField& field, cv::Mat1f& along) {
+  const int w = b.camera.width, h = b.camera.height;
+  cv::Mat2f at_infinity(h, w, cv::Vec2f(kNaN, kNaN));
+  const Eigen::Matrix3d b_from_world = b.camera.cam_from_world.rotation_matrix();
+  parallel_chunks(h, 8, [&](std::int64_t y0, std::int64_t y1) {
+    for (int y = int(y0); y < int(y1); ++y)
+      for (int x = 0; x < w; ++x) {
+        if (!synthetic.valid(y, x)) continue;
+        const Eigen::Vector3d ray_world = hit_point(mesh, b.buffers, b.buffers.index(x, y)) - a.centre;
+        Eigen::Vector2d pixel;
+        if (b.camera.project(b_from_world * ray_world, pixel) && pixel.allFinite() &&
+            (pixel - Eigen::Vector2d(x, y)).norm() > 1e-3)
+          at_infinity(y, x) = cv::Vec2f(float(pixel.x()), float(pixel.y()));
+      }
+  });
+  // Nearest pixel with a line, for every pixel (labels of the zero pixels of `has_line`).
+  cv::Mat1b no_line(h, w);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) no_line(y, x) = std::isfinite(at_infinity(y, x)[0]) ? 0 : 255;
+  cv::Mat1f distance;
+  cv::Mat1i labels;
+  cv::distanceTransform(no_line, distance, labels, cv::DIST_L2, 3, cv::DIST_LABEL_PIXEL);
+  std::vector<cv::Vec2f> label_infinity(std::size_t(w) * h + 1, cv::Vec2f(kNaN, kNaN));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (!no_line(y, x)) label_infinity[labels(y, x)] = at_infinity(y, x);
+
+  field.base.create(h, w);
+  field.direction.create(h, w);
+  along.create(h, w);
+  parallel_chunks(h, 8, [&](std::int64_t y0, std::int64_t y1) {
+    for (int y = int(y0); y < int(y1); ++y)
+      for (int x = 0; x < w; ++x) {
+        const cv::Vec2f infinity = no_line(y, x) ? label_infinity[labels(y, x)] : at_infinity(y, x);
+        const cv::Vec2f to_pixel = cv::Vec2f(float(x), float(y)) - infinity;
+        const float length = std::hypot(to_pixel[0], to_pixel[1]);
+        if (!(length > 1e-3f)) {
+          field.base(y, x) = field.direction(y, x) = cv::Vec2f(kNaN, kNaN);
+          along(y, x) = 0;
+          continue;
+        }
+        field.base(y, x) = -to_pixel;
+        field.direction(y, x) = to_pixel / length;
+        along(y, x) = length;
+      }
+  });
+}
+
+}  // namespace
+
+RefineViewState make_view_state(const RefineView& view, double scale) {
+  RefineViewState state;
+  state.camera = scaled_camera(view.camera, scale);
+  const cv::Size size(state.camera.width, state.camera.height);
+  cv::Mat1f gray = to_float_gray(view.image);
+  if (gray.size() != size) {
+    cv::Mat1f resized;
+    cv::resize(gray, resized, size, 0, 0, cv::INTER_AREA);
+    gray = resized;
+  }
+  state.gray = gray;
+  state.rays = RayTable(state.camera);
+  state.world_from_cam_rotation = state.camera.cam_from_world.rotation_matrix().transpose();
+  state.centre = state.camera.cam_from_world.centre();
+  return state;
+}
+
+void render_view_state(const Mesh& mesh, RefineViewState& state) {
+  RenderOptions options;
+  options.shading = Shading::none;
+  state.renderer.render(mesh, state.camera, state.rays, options, state.buffers);
+}
+
+void synthesize(const Mesh& mesh, const RefineViewState& a, const RefineViewState& b,
+                double relative_depth_tolerance, SyntheticView& out) {
+  const int w = b.camera.width, h = b.camera.height;
+  out.image.create(h, w);
+  out.valid.create(h, w);
+  const bool range_depth = !a.camera.is_perspective();
+  parallel_chunks(h, 8, [&](std::int64_t y0, std::int64_t y1) {
+    for (int y = int(y0); y < int(y1); ++y)
+      for (int x = 0; x < w; ++x) {
+        out.image(y, x) = b.gray(y, x);
+        out.valid(y, x) = 0;
+        const std::size_t i = b.buffers.index(x, y);
+        if (b.buffers.triangle[i] == kNoTriangle) continue;
+        const Eigen::Vector3d in_a = a.camera.cam_from_world * hit_point(mesh, b.buffers, i);
+        Eigen::Vector2d pixel;
+        if (!a.camera.project(in_a, pixel) || !a.camera.in_image(pixel)) continue;
+        const int nx = std::clamp(int(std::lround(pixel.x())), 0, a.camera.width - 1);
+        const int ny = std::clamp(int(std::lround(pixel.y())), 0, a.camera.height - 1);
+        const double seen = a.buffers.depth.at<float>(ny, nx);
+        const double own = range_depth ? in_a.norm() : in_a.z();
+        if (!(std::abs(seen - own) <= relative_depth_tolerance * std::abs(own))) continue;  // NaN too
+        out.image(y, x) = sample_bilinear(a.gray, pixel.x(), pixel.y());
+        out.valid(y, x) = 255;
+      }
+  });
+}
+
+void DisplacementSums::reset(std::size_t vertices) {
+  weight.assign(vertices, 0.0);
+  normal_matrix.assign(vertices, Eigen::Matrix3d::Zero());
+  rhs.assign(vertices, Eigen::Vector3d::Zero());
+}
+
+Eigen::Vector3d DisplacementSums::solve(std::size_t v) const {
+  if (weight[v] <= 0) return Eigen::Vector3d::Zero();
+  // A small ridge keeps directions no pixel constrains (tangents of flat parts) at zero.
+  const Eigen::Matrix3d m = normal_matrix[v] + 0.01 * weight[v] * Eigen::Matrix3d::Identity();
+  return m.ldlt().solve(rhs[v]);
+}
+
+std::size_t estimate_displacements(const Mesh& mesh, const RefineViewState& a, const RefineViewState& b,
+                                   const SyntheticView& synthetic, const RefineOptions& options,
+                                   double max_displacement, DisplacementSums& sums, double* flow_seconds) {
+  const int w = b.camera.width, h = b.camera.height;
+  const auto flow_start = std::chrono::steady_clock::now();
+  cv::Mat2f flow;
+  if (options.flow_mode == RefineFlow::epipolar) {
+    EpipolarField field;
+    cv::Mat1f along;
+    surface_epipolar_field(mesh, a, b, synthetic, field, along);
+    flow = compute_epipolar_flow(synthetic.image, b.gray, field, options.flow, along).flow;
+  } else {
+    flow = compute_flow(synthetic.image, b.gray, options.flow);
+  }
+  if (flow_seconds) *flow_seconds += seconds_since(flow_start);
+
+  // Distance to the border of the co-visible region, for the taper.
+  cv::Mat1f border_distance;
+  cv::distanceTransform(synthetic.valid, border_distance, cv::DIST_L2, 3);
+
+  const double sin_min_angle = std::sin(options.min_triangulation_angle_deg * M_PI / 180.0);
+  const double min_denominator = sin_min_angle * sin_min_angle;
+  const double sigma2 = options.confidence_sigma * options.confidence_sigma;
+  // Per pixel: weight (0 = no contribution) and displacement; gathered per vertex afterwards in row
+  // order so the sums do not depend on the thread count.
+  std::vector<float> pixel_weight(std::size_t(w) * h, 0.0f);
+  std::vector<float> pixel_offset(std::size_t(w) * h);  // along the face normal
+  parallel_chunks(h, 8, [&](std::int64_t y0, std::int64_t y1) {
+    for (int y = int(y0); y < int(y1); ++y)
+      for (int x = 0; x < w; ++x) {
+        if (!synthetic.valid(y, x)) continue;
+        const cv::Vec2f f = flow(y, x);
+        if (!std::isfinite(f[0]) || !std::isfinite(f[1])) continue;
+        const Eigen::Vector2d corrected(x + f[0], y + f[1]);
+        if (!b.camera.in_image(corrected)) continue;
+        const std::size_t i = b.buffers.index(x, y);
+        const Eigen::Vector3d point = hit_point(mesh, b.buffers, i);
+        // A's ray through the point, and B's ray through where the flow says the point really is.
+        Eigen::Vector3d u = point - a.centre;
+        const double t_current = u.norm();
+        u /= t_current;
+        const Eigen::Vector3d v = (b.world_from_cam_rotation * b.camera.unproject(corrected)).normalized();
+        const Eigen::Vector3d w0 = a.centre - b.centre;
+        const double uv = u.dot(v), denominator = 1 - uv * uv;
+        if (denominator < min_denominator) continue;
+        const double uw = u.dot(w0), vw = v.dot(w0);
+        const double t = (uv * vw - uw) / denominator, s = (vw - uv * uw) / denominator;
+        if (t <= 0 || s <= 0) continue;
+        const Eigen::Vector3d displacement = (t - t_current) * u;
+        if (!(displacement.norm() <= max_displacement)) continue;
+        const double residual = synthetic.image(y, x) - sample_bilinear(b.gray, corrected.x(), corrected.y());
+        const double confidence = 1.0 / (1.0 + residual * residual / sigma2);
+        const double taper = options.border_taper_px > 0
+                                 ? std::min(1.0, border_distance(y, x) / options.border_taper_px)
+                                 : 1.0;
+        pixel_weight[i] = float(confidence * taper);
+        pixel_offset[i] = float(displacement.dot(face_normal(mesh, b.buffers.triangle[i])));
+      }
+  });
+
+  std::size_t contributing = 0;
+  for (std::size_t i = 0; i < pixel_weight.size(); ++i) {
+    const double pw = pixel_weight[i];
+    if (pw <= 0) continue;
+    ++contributing;
+    const std::uint32_t triangle = b.buffers.triangle[i];
+    const auto& face = mesh.faces[triangle];
+    const double bary[3] = {1.0 - b.buffers.b1[i] - b.buffers.b2[i], b.buffers.b1[i], b.buffers.b2[i]};
+    const Eigen::Vector3d n = face_normal(mesh, triangle);
+    const Eigen::Matrix3d nn = n * n.transpose();
+    for (int k = 0; k < 3; ++k) {
+      const double weight = pw * std::max(0.0, bary[k]);
+      sums.weight[face[k]] += weight;
+      sums.normal_matrix[face[k]] += weight * nn;
+      sums.rhs[face[k]] += (weight * pixel_offset[i]) * n;
+    }
+  }
+  return contributing;
+}
+
+}  // namespace pg

@@ -1,0 +1,207 @@
+#include "pg/refine/refine.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <numbers>
+
+#include "pg/core/error.h"
+#include "pg/core/parallel.h"
+#include "pg/refine/refine_test_scene.h"
+#include "pg/synth/shapes.h"
+
+namespace {
+
+using pg::testing::DeformFixture;
+
+// One in-memory deform scene shared by the tests (rendering it is the slow part).
+const DeformFixture& deform() {
+  static const DeformFixture fixture = pg::testing::make_deform_fixture(320, 240);
+  return fixture;
+}
+
+std::vector<pg::Camera> cameras_of(const std::vector<pg::RefineView>& views) {
+  std::vector<pg::Camera> cameras;
+  for (const auto& v : views) cameras.push_back(v.camera);
+  return cameras;
+}
+
+pg::RefineOptions test_options(int iterations) {
+  pg::RefineOptions options;
+  options.scale = 1.0;  // the fixture is already small
+  options.iterations = iterations;
+  return options;
+}
+
+bool same_bits(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+  return std::memcmp(a.data(), b.data(), sizeof(float) * 3) == 0;
+}
+
+TEST(Refine, ConformsTheDeformSceneToThePhotographs) {
+  const DeformFixture& f = deform();
+  const pg::Mesh& initial = *f.scene.initial_mesh;
+  const pg::RefineResult result = pg::refine_mesh(initial, f.views, {}, {}, test_options(4));
+
+  // Topology identical, every vertex accounted for.
+  EXPECT_EQ(result.mesh.faces, initial.faces);
+  EXPECT_EQ(pg::topology_id(result.mesh), pg::topology_id(initial));
+  ASSERT_EQ(result.mesh.vertex_properties.at("displacement").size(), initial.vertex_count());
+
+  // The surface the cameras observe comes to the truth: >= 80% less distance. (The rock's underside,
+  // seen by fewer than two views, is only carried along by the smoothing.)
+  const pg::TriangleBvh truth(f.scene.mesh);
+  const auto observed = pg::testing::observed_vertices(initial, cameras_of(f.views));
+  const double before = pg::testing::mean_vertex_distance(initial, truth, observed);
+  const double after = pg::testing::mean_vertex_distance(result.mesh, truth, observed);
+  EXPECT_GT(before, 0.015);
+  EXPECT_LT(after, 0.2 * before) << "observed vertices: " << before << " -> " << after;
+  const double all_before = pg::testing::mean_vertex_distance(initial, truth, {});
+  const double all_after = pg::testing::mean_vertex_distance(result.mesh, truth, {});
+  EXPECT_LT(all_after, 0.4 * all_before) << "all vertices: " << all_before << " -> " << all_after;
+
+  // The photographs agree better on every pair, and the displacement shrinks as it converges.
+  ASSERT_EQ(result.iterations.size(), 4u);
+  const auto& first = result.iterations.front().before;
+  const auto& last = result.iterations.back().after;
+  ASSERT_EQ(first.size(), 2 * result.pairs.size());
+  for (std::size_t k = 0; k < first.size(); ++k) EXPECT_LT(last[k].ncc_error, first[k].ncc_error - 0.2) << k;
+  EXPECT_LT(result.iterations.back().mean_displacement, 0.2 * result.iterations.front().mean_displacement);
+  EXPECT_EQ(result.error_before.size(), result.error_after.size());
+}
+
+TEST(Refine, PinsAndVerticesOutsideTheWorkingSetStayBitForBit) {
+  const DeformFixture& f = deform();
+  const pg::Mesh& initial = *f.scene.initial_mesh;
+  const std::size_t n = initial.vertex_count();
+  pg::RefineMasks masks;
+  masks.working_set.assign(n, 0.0f);
+  masks.pinned.assign(n, 0.0f);
+  // Working set: the upper half of the rock; pins: a band through it, and one soft weight.
+  for (std::size_t v = 0; v < n; ++v) {
+    const Eigen::Vector3f& p = initial.positions[v];
+    if (p.z() > 0.45f) masks.working_set[v] = p.z() > 0.5f ? 1.0f : 0.5f;
+    if (std::abs(p.x()) < 0.08f) masks.pinned[v] = 1.0f;
+  }
+  const pg::RefineResult result = pg::refine_mesh(initial, f.views, {{0, 1}, {1, 2}}, masks, test_options(1));
+  std::size_t moved = 0;
+  for (std::size_t v = 0; v < n; ++v) {
+    const bool must_stay = masks.working_set[v] == 0.0f || masks.pinned[v] == 1.0f;
+    if (must_stay)
+      EXPECT_TRUE(same_bits(result.mesh.positions[v], initial.positions[v])) << "vertex " << v;
+    else
+      moved += !same_bits(result.mesh.positions[v], initial.positions[v]);
+  }
+  EXPECT_GT(moved, 500u);
+  EXPECT_EQ(result.mesh.faces, initial.faces);
+}
+
+TEST(Refine, ResultsDoNotDependOnTheThreadCount) {
+  const DeformFixture& f = deform();
+  const pg::Mesh& initial = *f.scene.initial_mesh;
+  pg::set_thread_count(1);
+  const pg::RefineResult one = pg::refine_mesh(initial, f.views, {{3, 4}}, {}, test_options(1));
+  pg::set_thread_count(0);
+  const pg::RefineResult all = pg::refine_mesh(initial, f.views, {{3, 4}}, {}, test_options(1));
+  ASSERT_EQ(one.mesh.positions.size(), all.mesh.positions.size());
+  for (std::size_t v = 0; v < one.mesh.positions.size(); ++v)
+    ASSERT_TRUE(same_bits(one.mesh.positions[v], all.mesh.positions[v])) << "vertex " << v;
+}
+
+// A flat, finely subdivided plane becomes a relief by refinement alone.
+TEST(Refine, SubdividedPlaneConformsToARelief) {
+  auto relief = [](float x, float y) {
+    return 0.06f * std::exp(-((x - 0.1f) * (x - 0.1f) + y * y) / 0.08f) -
+           0.04f * std::exp(-((x + 0.25f) * (x + 0.25f) + (y - 0.2f) * (y - 0.2f)) / 0.03f);
+  };
+  auto grid = [&](bool raised) {
+    pg::synth::MeshBuilder b;
+    b.add_grid(
+        48, 48,
+        [&](float u, float v) {
+          const float x = -0.6f + 1.2f * u, y = -0.6f + 1.2f * v;
+          return Eigen::Vector3f(x, y, raised ? relief(x, y) : 0.0f);
+        },
+        int(pg::synth::Material::rock));
+    return b;
+  };
+  pg::synth::MeshBuilder truth_builder = grid(true);
+  pg::synth::Scene scene;
+  scene.name = "relief";
+  scene.mesh = truth_builder.mesh;
+  scene.face_material = truth_builder.face_material;
+  scene.texture_points = scene.mesh.positions;
+  scene.texture = pg::synth::SolidTexture(7, 0.35f);
+  for (int i = 0; i < 4; ++i) {
+    const double angle = std::numbers::pi / 2 * i + 0.3;
+    pg::Camera c;
+    c.id = "top_" + std::to_string(i);
+    c.width = 320;
+    c.height = 240;
+    c.intrinsics = {300, 300, 159.5, 119.5};
+    c.cam_from_world = pg::Rigid3::look_at({0.5 * std::cos(angle), 0.5 * std::sin(angle), 1.6}, {0, 0, 0},
+                                           Eigen::Vector3d::UnitY());
+    scene.cameras.cameras.push_back(c);
+  }
+  pg::synth::ViewRenderer renderer(scene, 2);
+  std::vector<pg::RefineView> views;
+  for (const auto& c : scene.cameras.cameras)
+    views.push_back({c, pg::synth::to_srgb8(renderer.render(c).color)});
+
+  const pg::Mesh plane = grid(false).mesh;
+  const pg::RefineResult result =
+      pg::refine_mesh(plane, views, {{0, 1}, {1, 2}, {2, 3}, {3, 0}}, {}, test_options(5));
+  const pg::TriangleBvh truth(scene.mesh);
+  // Vertex-to-truth distances over the central part every view sees.
+  std::vector<std::uint8_t> centre(plane.vertex_count());
+  for (std::size_t v = 0; v < centre.size(); ++v)
+    centre[v] = plane.positions[v].head<2>().cwiseAbs().maxCoeff() < 0.4f;
+  const double before = pg::testing::mean_vertex_distance(plane, truth, centre);
+  const double after = pg::testing::mean_vertex_distance(result.mesh, truth, centre);
+  EXPECT_GT(before, 0.01);
+  EXPECT_LT(after, 0.25 * before) << before << " -> " << after;
+}
+
+TEST(Refine, ChoosesNeighbouringViewsAsPairs) {
+  const DeformFixture& f = deform();
+  const auto pairs = pg::select_view_pairs(*f.scene.initial_mesh, cameras_of(f.views));
+  // Twelve views on a ring, 30 degrees apart: each pairs with its two neighbours.
+  ASSERT_EQ(pairs.size(), 12u);
+  for (const auto& p : pairs) {
+    const int gap = std::abs(p.a - p.b);
+    EXPECT_TRUE(gap == 1 || gap == 11) << p.a << "-" << p.b;
+  }
+}
+
+TEST(Refine, RejectsBadPairsOptionsAndMasks) {
+  const DeformFixture& f = deform();
+  const pg::Mesh& initial = *f.scene.initial_mesh;
+  EXPECT_THROW(pg::refine_mesh(initial, f.views, {{0, 0}}, {}, test_options(1)), pg::UsageError);
+  EXPECT_THROW(pg::refine_mesh(initial, f.views, {{0, 40}}, {}, test_options(1)), pg::UsageError);
+  pg::RefineOptions bad = test_options(1);
+  bad.step = 0;
+  EXPECT_THROW(pg::refine_mesh(initial, f.views, {{0, 1}}, {}, bad), pg::UsageError);
+  pg::RefineMasks short_mask;
+  short_mask.pinned.assign(10, 1.0f);
+  EXPECT_THROW(pg::refine_mesh(initial, f.views, {{0, 1}}, short_mask, test_options(1)), pg::UsageError);
+  // A camera turned away from the mesh.
+  std::vector<pg::RefineView> turned = {f.views[0], f.views[1]};
+  turned[1].camera.cam_from_world = pg::Rigid3::look_at({0, 0, 5}, {0, 0, 10});
+  EXPECT_FALSE(pg::camera_sees_mesh(initial, turned[1].camera));
+  EXPECT_TRUE(pg::camera_sees_mesh(initial, turned[0].camera));
+  EXPECT_THROW(pg::refine_mesh(initial, turned, {{0, 1}}, {}, test_options(1)), pg::FailedError);
+}
+
+TEST(Refine, ScaledCameraKeepsPixelCentres) {
+  pg::Camera c;
+  c.width = 640;
+  c.height = 480;
+  c.intrinsics = {500, 510, 319.5, 239.5};
+  const pg::Camera half = pg::scaled_camera(c, 0.5);
+  EXPECT_EQ(half.width, 320);
+  EXPECT_EQ(half.height, 240);
+  EXPECT_DOUBLE_EQ(half.intrinsics.fx, 250);
+  EXPECT_DOUBLE_EQ(half.intrinsics.cx, 159.5);
+  EXPECT_DOUBLE_EQ(half.intrinsics.cy, 119.5);
+}
+
+}  // namespace
