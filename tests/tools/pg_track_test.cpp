@@ -47,8 +47,8 @@ TempDir* PgTrack::scene_ = nullptr;
 TEST_F(PgTrack, OrbitWithExactIntrinsicsMeetsTheAccuracyTargets) {
   TempDir out;
   const auto r = run_tool("pg-track", {"--images", (scene() / "images").string(), "--cameras",
-                                       (scene() / "cameras.json").string(), "--out", out.path().string(), "--report",
-                                       (out / "report.json").string()});
+                                       (scene() / "cameras.json").string(), "--out", out.path().string(),
+                                       "--report", (out / "report.json").string()});
   ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
   const pg::CameraSet truth = pg::read_cameras(scene() / "cameras.json");
   const pg::CameraSet estimate = pg::read_cameras(out / "cameras.json");
@@ -91,24 +91,25 @@ TEST_F(PgTrack, OrbitWithExactIntrinsicsMeetsTheAccuracyTargets) {
 
 TEST_F(PgTrack, OrbitSelfCalibratesTheFocalLength) {
   TempDir out;
-  const auto r = run_tool("pg-track", {"--images", (scene() / "images").string(), "--out", out.path().string()});
+  const auto r =
+      run_tool("pg-track", {"--images", (scene() / "images").string(), "--out", out.path().string()});
   ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
   const pg::CameraSet truth = pg::read_cameras(scene() / "cameras.json");
   const pg::CameraSet estimate = pg::read_cameras(out / "cameras.json");
   ASSERT_EQ(estimate.cameras.size(), truth.cameras.size());
   const pg::CameraEvalResult eval = pg::evaluate_cameras(estimate, truth);
-  std::cout << "[ measured ] synthetic orbit, self-calibrated: focal error " << 100 * eval.focal_relative_error.max
-            << "% (started from " << 1.2 * 640 << " px), centre error median "
-            << 100 * eval.centre_error.median / path_extent(truth) << "%\n";
+  std::cout << "[ measured ] synthetic orbit, self-calibrated: focal error "
+            << 100 * eval.focal_relative_error.max << "% (started from " << 1.2 * 640
+            << " px), centre error median " << 100 * eval.centre_error.median / path_extent(truth) << "%\n";
   EXPECT_LT(eval.focal_relative_error.max, 0.005);
   EXPECT_LT(eval.centre_error.median, 0.001 * path_extent(truth));
 }
 
 TEST_F(PgTrack, RangeTracksASubSequence) {
   TempDir out;
-  const auto r = run_tool("pg-track", {"--images", (scene() / "images").string(), "--cameras",
-                                       (scene() / "cameras.json").string(), "--range", "2:5", "--out",
-                                       out.path().string()});
+  const auto r = run_tool(
+      "pg-track", {"--images", (scene() / "images").string(), "--cameras",
+                   (scene() / "cameras.json").string(), "--range", "2:5", "--out", out.path().string()});
   ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
   const pg::CameraSet estimate = pg::read_cameras(out / "cameras.json");
   ASSERT_EQ(estimate.cameras.size(), 5u);
@@ -118,8 +119,8 @@ TEST_F(PgTrack, RangeTracksASubSequence) {
 
 TEST_F(PgTrack, FewerThanTwoImagesIsAUsageError) {
   TempDir out;
-  const auto r = run_tool("pg-track", {"--images", (scene() / "images" / "view_000.png").string(), "--out",
-                                       out.path().string()});
+  const auto r = run_tool(
+      "pg-track", {"--images", (scene() / "images" / "view_000.png").string(), "--out", out.path().string()});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.stderr_text.find("at least 2 images"), std::string::npos) << r.stderr_text;
 }

@@ -1,0 +1,265 @@
+// pg-track's camera recovery against COLMAP (CPU, `colmap` on PATH) on the same images and
+// intrinsics, in one run: registered images, centre error (% of the path extent, after similarity
+// alignment) and rotation error against ground truth, wall time of each (features + matching +
+// mapping) and the time ratio. COLMAP is skipped with a message when it is not installed.
+//   bench_track [data folder, default $PG_DATA_DIR or ../shared/data] [set names: temple-sparse,
+//   temple-ring, herz-half, herz-full, entry-half, entry-full; default all]
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <set>
+#include <sstream>
+#include <tuple>
+
+#include "pg/build_info.h"
+#include "pg/eval/camera_eval.h"
+#include "pg/sfm/reconstruction.h"
+#include "pg/sfm/sfm_outputs.h"
+#include "pg/sfm/truth_import.h"
+#include "pg/track/correspondences.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Dataset {
+  std::string name;
+  fs::path images;  // folder holding exactly the images of `truth`, in order
+  pg::CameraSet truth;
+};
+
+struct Outcome {
+  bool ran = false;
+  std::size_t registered = 0;
+  double median_centre_percent = 0, median_rotation_deg = 0, focal_error_percent = 0, seconds = 0;
+};
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+Outcome evaluate(const pg::CameraSet& estimate, const pg::CameraSet& truth, double seconds) {
+  Outcome o;
+  o.ran = true;
+  o.seconds = seconds;
+  o.registered = estimate.cameras.size();
+  if (estimate.cameras.size() < 3) return o;
+  const pg::CameraEvalResult e = pg::evaluate_cameras(estimate, truth);
+  double extent = 0;
+  for (const auto& a : truth.cameras)
+    for (const auto& b : truth.cameras)
+      extent = std::max(extent, (a.cam_from_world.centre() - b.cam_from_world.centre()).norm());
+  o.median_centre_percent = 100 * e.centre_error.median / extent;
+  o.median_rotation_deg = e.rotation_error_deg.median;
+  o.focal_error_percent = 100 * e.focal_relative_error.median;
+  return o;
+}
+
+Outcome run_pg(const Dataset& d, bool known) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<pg::SequenceFrame> frames;
+  std::vector<pg::Camera> initial;
+  for (const pg::Camera& c : d.truth.cameras) {
+    frames.push_back({c.id, d.images / fs::path(c.image).filename(), {}});
+    pg::Camera guess = c;
+    if (!known) {
+      const double f = pg::default_focal_guess(c.width, c.height);
+      guess.intrinsics = {f, f, (c.width - 1) / 2.0, (c.height - 1) / 2.0};
+      guess.distortion = {};
+    }
+    initial.push_back(guess);
+  }
+  const pg::CorrespondenceResult corr = pg::build_correspondences(frames, {});
+  pg::SfmOptions options;
+  options.shared_intrinsics = !known;
+  options.refine_focal = !known;
+  const pg::SfmResult result = pg::reconstruct(corr.tracks, initial, options);
+  return evaluate(pg::registered_cameras(result), d.truth, seconds_since(start));
+}
+
+bool have_colmap() {
+  return std::system("colmap help > /dev/null 2>&1") == 0;
+}
+
+int run_command(const std::string& command) {
+  return std::system((command + " > /dev/null 2>&1").c_str());
+}
+
+// COLMAP's pixel (0, 0) is the corner of the top-left pixel; pg's is its centre.
+pg::CameraSet read_colmap_text(const fs::path& folder, const pg::CameraSet& truth) {
+  std::map<int, pg::Intrinsics> intrinsics;
+  std::ifstream cams(folder / "cameras.txt");
+  for (std::string line; std::getline(cams, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream in(line);
+    int id, w, h;
+    std::string model;
+    in >> id >> model >> w >> h;
+    std::vector<double> p;
+    for (double x; in >> x;) p.push_back(x);
+    if (model == "PINHOLE")
+      intrinsics[id] = {p[0], p[1], p[2] - 0.5, p[3] - 0.5};
+    else
+      intrinsics[id] = {p[0], p[0], p[1] - 0.5, p[2] - 0.5};  // SIMPLE_RADIAL, SIMPLE_PINHOLE, RADIAL
+  }
+  pg::CameraSet set;
+  std::ifstream images(folder / "images.txt");
+  for (std::string line; std::getline(images, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream in(line);
+    int id, camera;
+    double qw, qx, qy, qz, tx, ty, tz;
+    std::string name;
+    in >> id >> qw >> qx >> qy >> qz >> tx >> ty >> tz >> camera >> name;
+    std::getline(images, line);  // the 2D points line
+    const std::string stem = fs::path(name).stem().string();
+    const pg::Camera* t = truth.find(stem);
+    if (!t) continue;
+    pg::Camera c = *t;
+    c.intrinsics = intrinsics[camera];
+    c.cam_from_world.rotation = Eigen::Quaterniond(qw, qx, qy, qz).normalized();
+    c.cam_from_world.translation = {tx, ty, tz};
+    set.cameras.push_back(c);
+  }
+  return set;
+}
+
+Outcome run_colmap(const Dataset& d, bool known, const fs::path& work) {
+  fs::remove_all(work);
+  fs::create_directories(work / "sparse");
+  const std::string db = (work / "db.db").string(), images = d.images.string();
+  const auto start = std::chrono::steady_clock::now();
+  std::string extract = "colmap feature_extractor --database_path " + db + " --image_path " + images +
+                        " --ImageReader.single_camera 1 --SiftExtraction.use_gpu 0";
+  if (known) {
+    const pg::Intrinsics& k = d.truth.cameras[0].intrinsics;
+    std::ostringstream params;
+    params << std::setprecision(17) << k.fx << "," << k.fy << "," << k.cx + 0.5 << "," << k.cy + 0.5;
+    extract += " --ImageReader.camera_model PINHOLE --ImageReader.camera_params " + params.str();
+  }
+  if (run_command(extract) != 0) return {};
+  // Exhaustive matching: what COLMAP's users run on small sets, and what closes a ring.
+  if (run_command("colmap exhaustive_matcher --database_path " + db + " --SiftMatching.use_gpu 0") != 0)
+    return {};
+  std::string map = "colmap mapper --database_path " + db + " --image_path " + images + " --output_path " +
+                    (work / "sparse").string();
+  if (known)
+    map +=
+        " --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0 "
+        "--Mapper.ba_refine_extra_params 0";
+  if (run_command(map) != 0) return {};
+  const double seconds = seconds_since(start);
+  // The largest model.
+  pg::CameraSet best;
+  for (const auto& entry : fs::directory_iterator(work / "sparse")) {
+    const fs::path txt = work / ("txt_" + entry.path().filename().string());
+    fs::create_directories(txt);
+    run_command("colmap model_converter --input_path " + entry.path().string() + " --output_path " +
+                txt.string() + " --output_type TXT");
+    pg::CameraSet set = read_colmap_text(txt, d.truth);
+    if (set.cameras.size() > best.cameras.size()) best = set;
+  }
+  return evaluate(best, d.truth, seconds);
+}
+
+// Images resized by `factor` into `folder` (for the half-resolution sets).
+Dataset resized(const Dataset& d, double factor, const fs::path& folder, const std::string& name) {
+  Dataset out{name, folder, {}};
+  fs::create_directories(folder);
+  for (const pg::Camera& c : d.truth.cameras) {
+    const fs::path image = d.images / fs::path(c.image).filename();
+    const fs::path target = folder / image.filename();
+    if (!fs::exists(target)) {
+      cv::Mat m = cv::imread(image.string(), cv::IMREAD_COLOR), small;
+      cv::resize(m, small, cv::Size(), factor, factor, cv::INTER_AREA);
+      cv::imwrite(target.string(), small, {cv::IMWRITE_JPEG_QUALITY, 98});
+    }
+    out.truth.cameras.push_back(pg::scale_camera_images(c, factor));
+  }
+  return out;
+}
+
+// A folder with only the images named by the truth (the Middlebury folders hold other files too).
+Dataset linked(const std::string& name, const fs::path& source, const pg::CameraSet& truth,
+               const fs::path& folder) {
+  fs::create_directories(folder);
+  for (const pg::Camera& c : truth.cameras) {
+    const fs::path target = folder / fs::path(c.image).filename();
+    if (!fs::exists(target)) fs::create_symlink(fs::absolute(source / c.image), target);
+  }
+  return {name, folder, truth};
+}
+
+void print_row(const std::string& set, const std::string& mode, const std::string& tool, const Outcome& o,
+               std::size_t frames) {
+  std::cout << std::left << std::setw(22) << set << std::setw(11) << mode << std::setw(8) << tool;
+  if (!o.ran) {
+    std::cout << "failed\n";
+    return;
+  }
+  std::cout << std::right << std::setw(3) << o.registered << "/" << std::left << std::setw(4) << frames
+            << std::fixed << std::setprecision(4) << std::setw(11) << o.median_centre_percent << std::setw(11)
+            << o.median_rotation_deg << std::setprecision(2) << std::setw(9) << o.focal_error_percent
+            << std::setprecision(1) << o.seconds << " s\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const char* env = std::getenv("PG_DATA_DIR");
+  const fs::path data = argc > 1 ? fs::path(argv[1]) : fs::path(env ? env : pg::build_info::default_data_dir);
+  std::set<std::string> wanted;
+  for (int i = 2; i < argc; ++i) wanted.insert(argv[i]);
+  auto want = [&](const std::string& name) { return wanted.empty() || wanted.count(name) > 0; };
+  const fs::path work = fs::temp_directory_path() / "pg-bench-track";
+  fs::create_directories(work);
+  const bool colmap = have_colmap();
+  if (!colmap) std::cout << "colmap not found on PATH: COLMAP is skipped (Debian package 'colmap')\n";
+
+  std::vector<Dataset> sets;
+  const fs::path multiview = data / "multiview";
+  for (const auto& [name, folder, par] : {std::tuple{"temple-sparse", "templeSparseRing", "templeSR_par.txt"},
+                                          std::tuple{"temple-ring", "templeRing", "templeR_par.txt"}})
+    if (want(name) && fs::exists(multiview / folder / par))
+      sets.push_back(linked(name, multiview / folder, pg::import_middlebury_par(multiview / folder / par),
+                            work / "images" / name));
+  for (const auto& [name, folder] : {std::pair{"herz", "Herz-Jesus-P8"}, std::pair{"entry", "entry-P10"}}) {
+    const fs::path root = multiview / "strecha" / folder;
+    if (!fs::exists(root)) continue;
+    const Dataset full{std::string(name) + "-full", root / "images",
+                       pg::import_strecha_cameras(root / "gt_dense_cameras", "images")};
+    if (want(std::string(name) + "-half"))
+      sets.push_back(
+          resized(full, 0.5, work / "images" / (std::string(name) + "-half"), std::string(name) + "-half"));
+    if (want(std::string(name) + "-full")) sets.push_back(full);
+  }
+  if (sets.empty()) {
+    std::cout << "no data found under " << data << "\n";
+    return 0;
+  }
+  std::cout << "set                   mode       tool    registered centre%    rot(deg)   focal%   time\n";
+  for (const Dataset& d : sets)
+    for (const bool known : {false, true}) {
+      const std::string mode = known ? "known K" : "self-cal";
+      const Outcome ours = run_pg(d, known);
+      print_row(d.name, mode, "pg", ours, d.truth.cameras.size());
+      if (!colmap) continue;
+      const Outcome theirs = run_colmap(d, known, work / "colmap");
+      print_row(d.name, mode, "colmap", theirs, d.truth.cameras.size());
+      if (theirs.ran && ours.ran)
+        std::cout << std::left << std::setw(41) << ""
+                  << "time ratio pg/colmap " << std::setprecision(2) << ours.seconds / theirs.seconds
+                  << ", centre error ratio "
+                  << (theirs.median_centre_percent > 0
+                          ? ours.median_centre_percent / theirs.median_centre_percent
+                          : 0)
+                  << "\n";
+    }
+  return 0;
+}

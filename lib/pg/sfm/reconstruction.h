@@ -1,0 +1,63 @@
+#pragma once
+// Incremental structure from motion on tracks of an ordered sequence: robust two-view initialisation,
+// registration of the next frames by PnP, triangulation with angle and reprojection checks, local and
+// global bundle adjustment, re-triangulation and outlier filtering between rounds.
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "pg/camera/camera.h"
+#include "pg/track/tracks.h"
+
+namespace pg {
+
+struct SfmOptions {
+  // One set of intrinsics for every frame (one physical camera, self-calibration); otherwise each
+  // frame keeps its own (e.g. known per-image calibrations).
+  bool shared_intrinsics = true;
+  bool refine_focal = true;
+  bool refine_principal_point = false;
+  bool refine_distortion = false;            // k1, k2
+  double max_reprojection_px = 4.0;          // observations beyond this are outliers
+  double min_triangulation_angle_deg = 1.5;  // points seen under a smaller angle are not kept
+  double init_min_angle_deg = 3.0;           // median angle the initial pair must reach
+  int min_pnp_inliers = 20;
+  int local_ba_frames = 8;         // frames adjusted together after each registration
+  double global_ba_growth = 1.25;  // a global adjustment whenever the model grew this much
+  double huber_px = 1.0;
+  int threads = 0;
+};
+
+struct SfmPoint {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  int track = -1;
+  int track_length = 0;                // observations used (registered frames within the error bound)
+  double reprojection_error_px = 0;    // mean over those observations
+  double triangulation_angle_deg = 0;  // largest angle between two observing rays
+  std::array<std::uint8_t, 3> color{128, 128, 128};
+};
+
+struct SfmResult {
+  std::vector<Camera> cameras;  // one per frame; the pose is meaningful only when registered
+  std::vector<bool> registered;
+  std::vector<int> frame_observations;  // observations of kept points per frame
+  std::vector<double> frame_rms_px;     // their reprojection RMS
+  std::vector<SfmPoint> points;
+  std::vector<int> track_point;           // per track: index into points or -1
+  std::vector<std::string> unregistered;  // ids of frames that could not be registered
+  int initial_pair[2] = {-1, -1};
+  double rms_px = 0;
+};
+
+// `initial` holds one camera per frame of `tracks` (size, model, intrinsics guess or calibration).
+// Throws UsageError when the sizes disagree, InputError naming the frames when shared intrinsics
+// meet images of different sizes, FailedError (naming frames) when no pair has enough parallax or
+// overlap to start from.
+SfmResult reconstruct(const TrackSet& tracks, const std::vector<Camera>& initial, const SfmOptions& options);
+
+// The default focal length guess without calibration or EXIF: 1.2 x the larger image side.
+double default_focal_guess(int width, int height);
+
+}  // namespace pg

@@ -1,0 +1,224 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "pg/core/error.h"
+#include "pg/core/log.h"
+#include "pg/eval/camera_eval.h"
+#include "pg/sfm/bundle_adjustment.h"
+#include "pg/sfm/reconstruction.h"
+#include "pg/sfm/sfm_outputs.h"
+#include "pg/sfm/truth_import.h"
+#include "pg/testing/testing.h"
+
+namespace pg {
+namespace {
+
+// An orbit of `views` cameras around random points in a 2 m cube, and tracks of the points' exact
+// projections plus Gaussian noise.
+struct Scene {
+  std::vector<Camera> cameras;
+  std::vector<Eigen::Vector3d> points;
+  TrackSet tracks;
+};
+
+Scene orbit_scene(int views, double noise_px, unsigned seed, bool ring_step_deg_large = false) {
+  Scene s;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::normal_distribution<double> noise(0, noise_px);
+  for (int i = 0; i < 1500; ++i) s.points.push_back({u(rng), u(rng), 0.5 * u(rng)});
+  const double step = ring_step_deg_large ? 2 * std::numbers::pi / views : 0.15;
+  for (int v = 0; v < views; ++v) {
+    Camera c;
+    c.id = "v" + std::to_string(v);
+    c.image = c.id + ".png";
+    c.width = 640;
+    c.height = 480;
+    c.intrinsics = {600, 600, 319.5, 239.5};
+    const double a = step * v;
+    c.cam_from_world =
+        Rigid3::look_at({6 * std::cos(a), 6 * std::sin(a), 1.5 + 0.3 * std::sin(3 * a)}, {0, 0, 0});
+    s.cameras.push_back(c);
+    s.tracks.frames.push_back({c.id, c.image, c.width, c.height});
+  }
+  for (const Eigen::Vector3d& X : s.points) {
+    Track t;
+    for (int v = 0; v < views; ++v) {
+      Eigen::Vector2d px;
+      if (!s.cameras[v].project_world(X, px) || !s.cameras[v].in_image(px, 2)) continue;
+      t.observations.push_back(
+          {v, static_cast<float>(px.x() + noise(rng)), static_cast<float>(px.y() + noise(rng))});
+    }
+    if (t.observations.size() >= 2) s.tracks.tracks.push_back(t);
+  }
+  return s;
+}
+
+CameraSet as_set(const std::vector<Camera>& cameras) {
+  CameraSet set;
+  set.cameras = cameras;
+  return set;
+}
+
+TEST(Sfm, RecoversAnOrbitFromNoisyTracks) {
+  const Scene s = orbit_scene(12, 0.3, 1);
+  SfmOptions options;
+  options.shared_intrinsics = false;
+  options.refine_focal = false;
+  const SfmResult r = reconstruct(s.tracks, s.cameras, options);
+  ASSERT_TRUE(r.unregistered.empty());
+  const CameraEvalResult eval = evaluate_cameras(registered_cameras(r), as_set(s.cameras));
+  EXPECT_LT(eval.centre_error.max, 0.01);  // metres, on a 6 m orbit
+  EXPECT_LT(eval.rotation_error_deg.max, 0.05);
+  EXPECT_LT(r.rms_px, 0.4);
+  EXPECT_GT(r.points.size(), 1000u);
+  for (const SfmPoint& p : r.points) {
+    EXPECT_GE(p.track_length, 2);
+    EXPECT_GE(p.triangulation_angle_deg, options.min_triangulation_angle_deg);
+  }
+}
+
+TEST(Sfm, SelfCalibratesTheFocalLengthOnAFullRing) {
+  // 24 views 15 degrees apart, starting from the default guess (768 px for a true 600 px).
+  const Scene s = orbit_scene(24, 0.3, 2, true);
+  std::vector<Camera> guess = s.cameras;
+  for (Camera& c : guess) c.intrinsics.fx = c.intrinsics.fy = default_focal_guess(c.width, c.height);
+  const SfmResult r = reconstruct(s.tracks, guess, {});
+  ASSERT_TRUE(r.unregistered.empty());
+  EXPECT_NEAR(r.cameras[0].intrinsics.fx / 600.0, 1.0, 0.005);
+}
+
+TEST(Sfm, OutlierTracksAreRejected) {
+  Scene s = orbit_scene(10, 0.3, 3);
+  // Corrupt 10% of the tracks: one observation moved by 30 px.
+  for (std::size_t t = 0; t < s.tracks.tracks.size(); t += 10) s.tracks.tracks[t].observations.back().x += 30;
+  SfmOptions options;
+  options.shared_intrinsics = false;
+  options.refine_focal = false;
+  const SfmResult r = reconstruct(s.tracks, s.cameras, options);
+  ASSERT_TRUE(r.unregistered.empty());
+  EXPECT_LT(r.rms_px, 0.5);
+  const CameraEvalResult eval = evaluate_cameras(registered_cameras(r), as_set(s.cameras));
+  EXPECT_LT(eval.rotation_error_deg.median, 0.04);
+  EXPECT_LT(eval.rotation_error_deg.max, 0.08);
+}
+
+TEST(Sfm, PureRotationFailsNamingTheFrames) {
+  Scene s = orbit_scene(4, 0.3, 4);
+  // Every camera at one centre: no parallax.
+  for (std::size_t v = 0; v < s.cameras.size(); ++v)
+    s.cameras[v].cam_from_world = Rigid3::look_at({6, 0, 1.5}, {0, 0.3 * v, 0});
+  s.tracks.tracks.clear();
+  for (const Eigen::Vector3d& X : s.points) {
+    Track t;
+    for (int v = 0; v < 4; ++v) {
+      Eigen::Vector2d px;
+      if (s.cameras[v].project_world(X, px) && s.cameras[v].in_image(px))
+        t.observations.push_back({v, float(px.x()), float(px.y())});
+    }
+    if (t.observations.size() >= 2) s.tracks.tracks.push_back(t);
+  }
+  try {
+    reconstruct(s.tracks, s.cameras, {});
+    FAIL() << "no error";
+  } catch (const FailedError& e) {
+    EXPECT_NE(std::string(e.what()).find("parallax"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(" and v"), std::string::npos) << e.what();
+  }
+}
+
+TEST(BundleAdjustment, RecoversPerturbedPosesAndPoints) {
+  const Scene s = orbit_scene(6, 0.0, 5);
+  std::vector<PoseParams> poses;
+  for (const Camera& c : s.cameras) {
+    const Eigen::AngleAxisd aa(c.cam_from_world.rotation);
+    const Eigen::Vector3d v = aa.axis() * aa.angle();
+    poses.push_back({v.x(), v.y(), v.z(), c.cam_from_world.translation.x(), c.cam_from_world.translation.y(),
+                     c.cam_from_world.translation.z()});
+  }
+  const std::vector<PoseParams> truth_poses = poses;
+  std::vector<IntrinsicParams> intrinsics{{600, 319.5, 239.5, 0, 0}};
+  std::vector<Eigen::Vector3d> points = s.points;
+  std::mt19937 rng(9);
+  std::normal_distribution<double> n(0, 1);
+  for (std::size_t f = 2; f < poses.size(); ++f)
+    for (int k = 0; k < 6; ++k) poses[f][k] += (k < 3 ? 0.01 : 0.05) * n(rng);
+  for (Eigen::Vector3d& X : points) X += 0.02 * Eigen::Vector3d(n(rng), n(rng), n(rng));
+  BundleProblem problem;
+  problem.poses = &poses;
+  problem.intrinsics = &intrinsics;
+  problem.aspect = {1.0};
+  problem.frame_group.assign(poses.size(), 0);
+  problem.points = &points;
+  // Two fixed frames fix the gauge including scale.
+  problem.frame_constant = {true, true, false, false, false, false};
+  for (std::size_t p = 0; p < s.points.size(); ++p)
+    for (int f = 0; f < 6; ++f) {
+      Eigen::Vector2d px;
+      if (s.cameras[f].project_world(s.points[p], px)) problem.observations.push_back({f, int(p), px});
+    }
+  const BundleSummary summary = bundle_adjust(problem, {});
+  EXPECT_LT(summary.final_rms_px, 1e-4);
+  for (std::size_t f = 0; f < poses.size(); ++f)
+    for (int k = 0; k < 6; ++k) EXPECT_NEAR(poses[f][k], truth_poses[f][k], 1e-6) << f << " " << k;
+}
+
+TEST(TruthImport, MiddleburyParProjectsLikeTheFile) {
+  PG_REQUIRE_REAL_DATA(folder, "multiview/templeSparseRing");
+  const CameraSet set = import_middlebury_par(folder / "templeSR_par.txt");
+  ASSERT_EQ(set.cameras.size(), 16u);
+  const Camera& c = set.cameras[0];
+  EXPECT_EQ(c.id, "templeSR0001");
+  EXPECT_EQ(c.width, 640);
+  EXPECT_DOUBLE_EQ(c.intrinsics.fx, 1520.4);
+  EXPECT_DOUBLE_EQ(c.intrinsics.cy, 246.87);
+  EXPECT_NEAR(c.cam_from_world.translation.z(), 0.614604845959, 1e-12);
+  // The temple (README bounding box about (-0.05, 0, -0.06)..(0.1, 0.16, 0.06)) is in front of every camera.
+  for (const Camera& cam : set.cameras)
+    EXPECT_GT((cam.cam_from_world * Eigen::Vector3d(0.02, 0.08, 0)).z(), 0.3);
+}
+
+TEST(TruthImport, StrechaCamerasKeepTheCentre) {
+  PG_REQUIRE_REAL_DATA(folder, "multiview/strecha/Herz-Jesus-P8/gt_dense_cameras");
+  const CameraSet set = import_strecha_cameras(folder, "images");
+  ASSERT_EQ(set.cameras.size(), 8u);
+  const Camera& c = set.cameras[0];
+  EXPECT_EQ(c.id, "0000");
+  EXPECT_EQ(c.image, "images/0000.jpg");
+  EXPECT_EQ(c.width, 3072);
+  EXPECT_DOUBLE_EQ(c.intrinsics.fx, 2759.48);
+  EXPECT_NEAR((c.cam_from_world.centre() - Eigen::Vector3d(-6.71999, -14.2551, 0.279539)).norm(), 0, 1e-5);
+  const CameraSet half = import_strecha_cameras(folder, "images", 0.5);
+  EXPECT_EQ(half.cameras[0].width, 1536);
+  EXPECT_DOUBLE_EQ(half.cameras[0].intrinsics.fx, 2759.48 / 2);
+  EXPECT_DOUBLE_EQ(half.cameras[0].intrinsics.cx, (1520.69 + 0.5) / 2 - 0.5);
+}
+
+TEST(TruthImport, RejectsMalformedFiles) {
+  testing::TempDir dir;
+  testing::write_text(dir / "bad_par.txt", "2\nimg.png 1 0 0 0 1 0 0 0 1\n");
+  EXPECT_THROW(import_middlebury_par(dir / "bad_par.txt"), InputError);
+  testing::write_text(dir / "zero_par.txt", "1\nimg.png 1 0 0 0 1 0 0 0 1 2 0 0 0 1 0 0 0 1 0 0 0\n");
+  EXPECT_THROW(import_middlebury_par(dir / "zero_par.txt"), InputError);  // R is not a rotation
+  EXPECT_THROW(import_strecha_cameras(dir.path()), InputError);           // no .camera files
+}
+
+TEST(SfmOutputs, ScaleToDistanceSetsTheBaseline) {
+  const Scene s = orbit_scene(6, 0.2, 6);
+  SfmOptions options;
+  options.shared_intrinsics = false;
+  options.refine_focal = false;
+  SfmResult r = reconstruct(s.tracks, s.cameras, options);
+  scale_to_distance(r, "v0", "v5", 2.5);
+  EXPECT_NEAR((r.cameras[0].cam_from_world.centre() - r.cameras[5].cam_from_world.centre()).norm(), 2.5,
+              1e-9);
+  EXPECT_THROW(scale_to_distance(r, "v0", "nope", 1), UsageError);
+  const cv::Mat view = render_top_view(r, 200);
+  EXPECT_EQ(view.rows, 200);
+}
+
+}  // namespace
+}  // namespace pg

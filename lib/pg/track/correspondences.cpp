@@ -1,0 +1,285 @@
+#include "pg/track/correspondences.h"
+
+#include <tbb/parallel_for.h>
+#include <algorithm>
+#include <chrono>
+#include <memory>
+#include <numeric>
+#include <opencv2/imgproc.hpp>
+#include <optional>
+
+#include "pg/core/error.h"
+#include "pg/core/log.h"
+#include "pg/core/run_report.h"
+#include "pg/image/image_io.h"
+#include "pg/track/features.h"
+
+namespace pg {
+
+std::string to_string(CorrespondenceMethod method) {
+  switch (method) {
+    case CorrespondenceMethod::sift:
+      return "sift";
+    case CorrespondenceMethod::klt:
+      return "klt";
+    case CorrespondenceMethod::shi_tomasi:
+      return "shi-tomasi";
+  }
+  return "?";
+}
+
+CorrespondenceMethod correspondence_method_from_string(const std::string& name) {
+  if (name == "sift") return CorrespondenceMethod::sift;
+  if (name == "klt") return CorrespondenceMethod::klt;
+  if (name == "shi-tomasi") return CorrespondenceMethod::shi_tomasi;
+  throw UsageError(str("unknown matcher '", name, "' (sift, klt or shi-tomasi)"));
+}
+
+namespace {
+
+struct WorkingFrame {
+  cv::Mat gray8, mask;              // working resolution
+  cv::Size full_size;               // the image file's size
+  double scale_x = 1, scale_y = 1;  // full / working
+  cv::Point2f to_full(const cv::Point2f& p) const {
+    return {static_cast<float>((p.x + 0.5) * scale_x - 0.5), static_cast<float>((p.y + 0.5) * scale_y - 0.5)};
+  }
+};
+
+WorkingFrame load_frame(const SequenceFrame& frame, double downscale) {
+  WorkingFrame w;
+  cv::Mat gray = read_image(frame.image, ReadMode::gray_float);
+  w.full_size = gray.size();
+  gray.convertTo(w.gray8, CV_8U, 255.0);
+  cv::Mat mask;
+  if (!frame.mask.empty()) {
+    mask = read_image(frame.mask, ReadMode::gray_float);
+    if (mask.size() != gray.size())
+      throw InputError(frame.mask, str("mask is ", mask.cols, "x", mask.rows, " but image ",
+                                       frame.image.string(), " is ", gray.cols, "x", gray.rows));
+    cv::Mat m8 = mask > 0.5f;
+    w.mask = m8;
+  }
+  if (downscale > 1) {
+    const cv::Size size(std::max(1, static_cast<int>(std::lround(gray.cols / downscale))),
+                        std::max(1, static_cast<int>(std::lround(gray.rows / downscale))));
+    cv::Mat small;
+    cv::resize(w.gray8, small, size, 0, 0, cv::INTER_AREA);
+    w.gray8 = small;
+    if (!w.mask.empty()) {
+      cv::Mat small_mask;
+      cv::resize(w.mask, small_mask, size, 0, 0, cv::INTER_NEAREST);
+      w.mask = small_mask;
+    }
+    w.scale_x = static_cast<double>(gray.cols) / size.width;
+    w.scale_y = static_cast<double>(gray.rows) / size.height;
+  }
+  return w;
+}
+
+struct SiftMatcher {
+  const std::vector<FrameFeatures>& features;
+  const std::vector<std::unique_ptr<DescriptorIndex>>& indices;
+  const CorrespondenceOptions& options;
+  std::vector<PointLink>& links;
+  std::vector<int> node_offset;  // SIFT features of frame f follow node_offset[f] other points
+  std::vector<VerifiedPair>& pairs;
+
+  // Pairs are matched in parallel; their links are appended in pair order (deterministic).
+  void match_all(const std::vector<std::pair<int, int>>& list, bool loop) {
+    std::vector<std::vector<PointLink>> pair_links(list.size());
+    std::vector<VerifiedPair> pair_info(list.size());
+    tbb::parallel_for(std::size_t(0), list.size(), [&](std::size_t i) {
+      pair_info[i] = match(list[i].first, list[i].second, loop, pair_links[i]);
+    });
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      pairs.push_back(pair_info[i]);
+      links.insert(links.end(), pair_links[i].begin(), pair_links[i].end());
+    }
+  }
+
+  VerifiedPair match(int a, int b, bool loop, std::vector<PointLink>& out) const {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::vector<FeatureMatch> m = match_indexed(
+        features[a].descriptors, *indices[a], features[b].descriptors, *indices[b], options.ratio, true);
+    std::vector<cv::Point2f> pa, pb;
+    for (const FeatureMatch& x : m) {
+      pa.push_back(features[a].points[x.a]);
+      pb.push_back(features[b].points[x.b]);
+    }
+    const auto t1 = std::chrono::steady_clock::now();
+    const std::vector<bool> inliers = fundamental_inliers(pa, pb, options.verify_px);
+    const int count = static_cast<int>(std::count(inliers.begin(), inliers.end(), true));
+    log::debug("match ", a, "-", b, ": ", m.size(), " matches, ", count, " inliers; ",
+               std::chrono::duration<double>(t1 - t0).count(), " s matching, ",
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count(), " s verifying");
+    const VerifiedPair info{a, b, static_cast<int>(m.size()), count, loop};
+    if (count < options.min_pair_inliers) return info;
+    for (std::size_t k = 0; k < m.size(); ++k)
+      if (inliers[k]) out.push_back({a, node_offset[a] + m[k].a, b, node_offset[b] + m[k].b});
+    return info;
+  }
+};
+
+// Pairs outside the sequential window whose strongest features match well enough.
+std::vector<std::pair<int, int>> loop_pairs(const std::vector<FrameFeatures>& features,
+                                            const CorrespondenceOptions& options) {
+  const int n = static_cast<int>(features.size());
+  std::vector<FrameFeatures> probes;
+  for (const FrameFeatures& f : features)
+    probes.push_back(strongest_features(f, options.loop_probe_features));
+  std::vector<std::vector<std::pair<int, int>>> score(n);  // (count, other)
+  for (int a = 0; a < n; ++a)
+    for (int b = a + options.sequential_window + 1; b < n; ++b) {
+      const int count = static_cast<int>(
+          match_descriptors(probes[a].descriptors, probes[b].descriptors, options.ratio, true).size());
+      if (count < options.min_loop_probe_matches) continue;
+      score[a].push_back({count, b});
+      score[b].push_back({count, a});
+    }
+  std::vector<std::pair<int, int>> chosen;
+  for (int a = 0; a < n; ++a) {
+    std::sort(score[a].rbegin(), score[a].rend());
+    for (int k = 0; k < std::min<int>(options.loop_candidates, static_cast<int>(score[a].size())); ++k)
+      chosen.push_back({std::min(a, score[a][k].second), std::max(a, score[a][k].second)});
+  }
+  std::sort(chosen.begin(), chosen.end());
+  chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
+  return chosen;
+}
+
+}  // namespace
+
+std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Point2f>>& frame_points,
+                                           const std::vector<PointLink>& links) {
+  std::vector<int> offset(frame_points.size() + 1, 0);
+  for (std::size_t f = 0; f < frame_points.size(); ++f)
+    offset[f + 1] = offset[f] + static_cast<int>(frame_points[f].size());
+  std::vector<int> parent(offset.back());
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  std::vector<bool> linked(parent.size(), false);
+  for (const PointLink& l : links) {
+    const int a = offset[l.frame_a] + l.index_a, b = offset[l.frame_b] + l.index_b;
+    linked[a] = linked[b] = true;
+    const int ra = find(a), rb = find(b);
+    if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+  }
+  // Group nodes by root, in frame order (nodes are numbered frame by frame).
+  std::vector<int> track_of_root(parent.size(), -1);
+  std::vector<std::vector<std::pair<int, int>>> members;  // (frame, index)
+  for (std::size_t f = 0; f < frame_points.size(); ++f)
+    for (int i = 0; i < static_cast<int>(frame_points[f].size()); ++i) {
+      const int node = offset[f] + i;
+      if (!linked[node]) continue;
+      const int root = find(node);
+      if (track_of_root[root] < 0) {
+        track_of_root[root] = static_cast<int>(members.size());
+        members.emplace_back();
+      }
+      members[track_of_root[root]].push_back({static_cast<int>(f), i});
+    }
+  std::vector<Track> tracks;
+  for (const auto& m : members) {
+    Track t;
+    for (std::size_t k = 0; k < m.size(); ++k) {
+      const bool twice =
+          (k > 0 && m[k - 1].first == m[k].first) || (k + 1 < m.size() && m[k + 1].first == m[k].first);
+      if (twice) continue;
+      const cv::Point2f& p = frame_points[m[k].first][m[k].second];
+      t.observations.push_back({m[k].first, p.x, p.y});
+    }
+    if (t.observations.size() >= 2) tracks.push_back(std::move(t));
+  }
+  return tracks;
+}
+
+CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& frames,
+                                           const CorrespondenceOptions& options) {
+  if (frames.size() < 2) throw UsageError(str("tracking needs at least 2 images, got ", frames.size()));
+  if (options.downscale < 1) throw UsageError("downscale must be at least 1");
+  const int n = static_cast<int>(frames.size());
+  std::vector<WorkingFrame> work(n);
+  tbb::parallel_for(0, n, [&](int f) { work[f] = load_frame(frames[f], options.downscale); });
+
+  CorrespondenceResult result;
+  result.tracks.method = to_string(options.method);
+  for (int f = 0; f < n; ++f)
+    result.tracks.frames.push_back(
+        {frames[f].id, frames[f].image.string(), work[f].full_size.width, work[f].full_size.height});
+
+  // Per-frame point lists (working pixels): KLT points first, then SIFT features.
+  std::vector<std::vector<cv::Point2f>> points(n);
+  std::vector<PointLink> links;
+  std::vector<int> continued(n, 0);
+  const bool klt = options.method != CorrespondenceMethod::sift;
+  if (klt) {
+    std::vector<cv::Mat> grays, masks;
+    for (const WorkingFrame& w : work) grays.push_back(w.gray8), masks.push_back(w.mask);
+    ScopedTimer timer("klt tracking");
+    KltOptions ko = options.klt;
+    ko.redetect_every_frame = options.method == CorrespondenceMethod::shi_tomasi;
+    const auto tracked = track_klt(grays, masks, ko, &continued);
+    std::vector<std::pair<int, int>> last_seen;  // track id -> (frame, index)
+    for (int f = 0; f < n; ++f)
+      for (const KltPoint& p : tracked[f]) {
+        const int index = static_cast<int>(points[f].size());
+        points[f].push_back(p.position);
+        if (p.track >= static_cast<int>(last_seen.size())) last_seen.resize(p.track + 1, {-1, -1});
+        const auto [pf, pi] = last_seen[p.track];
+        if (pf >= 0) links.push_back({pf, pi, f, index});
+        last_seen[p.track] = {f, index};
+      }
+    for (int f = 1; f < n; ++f)
+      log::debug("klt: ", continued[f], " tracks continue into frame ", frames[f].id);
+  }
+
+  std::vector<std::pair<int, int>> sift_pairs;
+  if (!klt) {
+    for (int a = 0; a < n; ++a)
+      for (int b = a + 1; b <= std::min(n - 1, a + options.sequential_window); ++b)
+        sift_pairs.push_back({a, b});
+  } else {
+    for (int f = 1; f < n; ++f)
+      if (continued[f] < options.klt_min_continued) sift_pairs.push_back({f - 1, f});
+  }
+  const bool need_sift = !sift_pairs.empty() || options.loop_matching;
+  if (need_sift) {
+    std::vector<FrameFeatures> features(n);
+    std::vector<int> offset(n);
+    std::optional<ScopedTimer> timer(std::in_place, "sift features");
+    tbb::parallel_for(0, n, [&](int f) {
+      features[f] =
+          detect_sift(work[f].gray8, work[f].mask, klt ? options.max_features / 2 : options.max_features);
+    });
+    for (int f = 0; f < n; ++f) {
+      offset[f] = static_cast<int>(points[f].size());
+      points[f].insert(points[f].end(), features[f].points.begin(), features[f].points.end());
+      log::debug("sift: ", features[f].points.size(), " features in ", frames[f].id);
+    }
+    timer.emplace("sift matching");
+    std::vector<std::unique_ptr<DescriptorIndex>> indices;
+    for (const FrameFeatures& f : features)
+      indices.push_back(std::make_unique<DescriptorIndex>(f.descriptors));
+    SiftMatcher matcher{features, indices, options, links, offset, result.pairs};
+    matcher.match_all(sift_pairs, false);
+    if (options.loop_matching) {
+      // In KLT modes, every pair beyond consecutive frames is a loop candidate.
+      CorrespondenceOptions probe = options;
+      if (klt) probe.sequential_window = 1;
+      matcher.match_all(loop_pairs(features, probe), true);
+    }
+  }
+
+  // To full-resolution pixels, then tracks.
+  for (int f = 0; f < n; ++f)
+    for (cv::Point2f& p : points[f]) p = work[f].to_full(p);
+  result.tracks.tracks = merge_links_into_tracks(points, links);
+  if (klt && options.loop_matching) result.tracks.method += "+sift";
+  return result;
+}
+
+}  // namespace pg

@@ -1,0 +1,74 @@
+#pragma once
+// Correspondences across an ordered sequence: features, pairwise matching between neighbouring frames
+// and between non-neighbouring frames that overlap (so a ring closes), robust verification, and the
+// merge of pairwise matches into multi-frame tracks.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "pg/track/klt.h"
+#include "pg/track/tracks.h"
+
+namespace pg {
+
+enum class CorrespondenceMethod {
+  sift,        // SIFT (RootSIFT) descriptors, ratio test, mutual check
+  klt,         // pyramidal Lucas-Kanade tracks with forward-backward check, replenished as they die
+  shi_tomasi,  // Shi-Tomasi corners detected in every frame and tracked (re-anchored) frame to frame
+};
+std::string to_string(CorrespondenceMethod method);
+CorrespondenceMethod correspondence_method_from_string(const std::string& name);  // throws UsageError
+
+struct CorrespondenceOptions {
+  CorrespondenceMethod method = CorrespondenceMethod::sift;
+  double downscale = 1;       // features are found on images shrunk by this factor (>= 1)
+  int max_features = 8000;    // SIFT features kept per frame, strongest first
+  double ratio = 0.8;         // Lowe's ratio test
+  int sequential_window = 3;  // each frame is matched with the next `sequential_window` frames
+  // Non-neighbouring pairs: each frame is probed against every frame outside the window with its
+  // strongest features; the best `loop_candidates` overlapping frames are matched in full.
+  bool loop_matching = true;
+  int loop_candidates = 3;
+  int loop_probe_features = 400;
+  int min_loop_probe_matches = 15;
+  double verify_px = 2.0;     // fundamental-matrix inlier threshold, in working-image pixels
+  int min_pair_inliers = 20;  // a pair with fewer verified matches contributes none
+  KltOptions klt;
+  // KLT/Shi-Tomasi: consecutive frames joined by fewer tracks are matched by SIFT as well.
+  int klt_min_continued = 150;
+};
+
+struct SequenceFrame {
+  std::string id;
+  std::filesystem::path image;
+  std::filesystem::path mask;  // empty: none; otherwise non-zero pixels are usable
+};
+
+struct VerifiedPair {
+  int a = 0, b = 0;
+  int matches = 0;    // after the ratio test and mutual check
+  int inliers = 0;    // after the fundamental-matrix check
+  bool loop = false;  // found by loop probing (not a sequential neighbour)
+};
+
+struct CorrespondenceResult {
+  TrackSet tracks;
+  std::vector<VerifiedPair> pairs;  // every pair matched, accepted or not
+};
+
+// Throws InputError for unreadable images or masks of a different size than their image,
+// UsageError for fewer than 2 frames.
+CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& frames,
+                                           const CorrespondenceOptions& options);
+
+// Union-find merge of pairwise links between per-frame point lists into tracks. `frame_points[f]` holds
+// frame f's points in full-resolution pixels; links join (frame, index) nodes. A component that holds
+// two different points of one frame drops that frame's observations (ambiguous); components left with
+// fewer than two observations are dropped.
+struct PointLink {
+  int frame_a, index_a, frame_b, index_b;
+};
+std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Point2f>>& frame_points,
+                                           const std::vector<PointLink>& links);
+
+}  // namespace pg

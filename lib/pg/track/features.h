@@ -1,0 +1,60 @@
+#pragma once
+// Local features of one frame: SIFT keypoints with RootSIFT descriptors, descriptor matching with the
+// ratio test and a mutual check, and robust two-view verification by a fundamental matrix.
+#include <opencv2/core.hpp>
+#include <vector>
+
+namespace pg {
+
+struct FrameFeatures {
+  std::vector<cv::Point2f> points;  // working-image pixels, pixel (0, 0) the centre of the top-left pixel
+  std::vector<float> responses;     // detector strength, for picking the strongest subset
+  cv::Mat descriptors;              // CV_32F, one RootSIFT row per point
+};
+
+// SIFT on an 8-bit grey image; `mask` (8-bit, same size, non-zero = usable) may be empty. Keeps at
+// most max_features, the strongest first.
+FrameFeatures detect_sift(const cv::Mat& gray8, const cv::Mat& mask, int max_features,
+                          double contrast_threshold = 0.02);
+
+// The `count` strongest features (all when count >= size).
+FrameFeatures strongest_features(const FrameFeatures& features, int count);
+
+struct FeatureMatch {
+  int a = 0, b = 0;  // indices into the two frames' features
+};
+
+// Nearest-neighbour matches a -> b that pass Lowe's ratio test and, with `mutual`, whose match b -> a
+// is the same pair.
+std::vector<FeatureMatch> match_descriptors(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
+                                            double ratio = 0.8, bool mutual = true);
+
+// Approximate nearest neighbours over one frame's descriptors (randomised kd-trees, FLANN): built once
+// per frame, queried by every pair the frame takes part in.
+class DescriptorIndex {
+ public:
+  explicit DescriptorIndex(const cv::Mat& descriptors);
+  ~DescriptorIndex();
+  DescriptorIndex(const DescriptorIndex&) = delete;
+  DescriptorIndex& operator=(const DescriptorIndex&) = delete;
+  // Two nearest neighbours of each query row: CV_32S indices and CV_32F squared distances (n x 2).
+  void nearest_two(const cv::Mat& queries, cv::Mat& indices, cv::Mat& squared_distances) const;
+  int size() const { return rows_; }
+
+ private:
+  struct Impl;
+  Impl* impl_;
+  int rows_;
+};
+
+// As match_descriptors, through the frames' indices (much faster for thousands of features).
+std::vector<FeatureMatch> match_indexed(const cv::Mat& descriptors_a, const DescriptorIndex& index_a,
+                                        const cv::Mat& descriptors_b, const DescriptorIndex& index_b,
+                                        double ratio = 0.8, bool mutual = true);
+
+// Inlier flags of a RANSAC fundamental matrix (Sampson distance below threshold_px). All false when
+// fewer than 8 pairs or no model is found.
+std::vector<bool> fundamental_inliers(const std::vector<cv::Point2f>& a, const std::vector<cv::Point2f>& b,
+                                      double threshold_px, cv::Mat* fundamental = nullptr);
+
+}  // namespace pg

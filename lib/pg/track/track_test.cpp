@@ -1,0 +1,147 @@
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "pg/core/error.h"
+#include "pg/testing/testing.h"
+#include "pg/track/correspondences.h"
+#include "pg/track/features.h"
+#include "pg/track/tracks.h"
+
+namespace pg {
+namespace {
+
+using testing::TempDir;
+
+TrackSet small_set() {
+  TrackSet set;
+  set.method = "sift";
+  set.frames = {{"a", "a.png", 640, 480}, {"b", "b.png", 640, 480}, {"c", "c.png", 640, 480}};
+  set.tracks = {{{{0, 10.5f, 20.25f}, {1, 11.0f, 21.0f}, {2, 12.0f, 22.0f}}, 0},
+                {{{1, 100.0f, 200.0f}, {2, 101.5f, 199.5f}}, -1}};
+  return set;
+}
+
+TEST(Tracks, WriteReadRoundTrip) {
+  TempDir dir;
+  write_tracks(dir / "tracks.json", small_set());
+  const TrackSet back = read_tracks(dir / "tracks.json");
+  ASSERT_EQ(back.frames.size(), 3u);
+  EXPECT_EQ(back.frames[1].id, "b");
+  EXPECT_EQ(back.method, "sift");
+  ASSERT_EQ(back.tracks.size(), 2u);
+  EXPECT_EQ(back.tracks[0].point, 0);
+  EXPECT_EQ(back.tracks[1].point, -1);
+  ASSERT_EQ(back.tracks[0].observations.size(), 3u);
+  EXPECT_EQ(back.tracks[0].observations[2].frame, 2);
+  EXPECT_FLOAT_EQ(back.tracks[0].observations[0].y, 20.25f);
+  EXPECT_EQ(back.observations_per_frame(), (std::vector<std::size_t>{1, 2, 2}));
+}
+
+TEST(Tracks, ReaderRejectsMalformedFiles) {
+  TempDir dir;
+  write_tracks(dir / "good.json", small_set());
+  const std::string good = testing::read_text(dir / "good.json");
+  auto expect_rejected = [&](const std::string& from, const std::string& to, const std::string& message) {
+    std::string text = good;
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+    testing::write_text(dir / "bad.json", text);
+    try {
+      read_tracks(dir / "bad.json");
+      ADD_FAILURE() << "accepted: " << to;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("bad.json"), std::string::npos) << e.what();
+    }
+  };
+  expect_rejected("\"pg-tracks\"", "\"pg-cameras\"", "format");
+  expect_rejected("\"version\": 1", "\"version\": 2", "version");
+  expect_rejected("[0,10.5,20.25,1,11.0,21.0,2,12.0,22.0]", "[0,10.5,20.25,7,11.0,21.0]", "out of range");
+  expect_rejected("[0,10.5,20.25,1,11.0,21.0,2,12.0,22.0]", "[0,10.5,20.25,0,11.0,21.0]", "observed twice");
+  expect_rejected("[0,10.5,20.25,1,11.0,21.0,2,12.0,22.0]", "[0,10.5,20.25]", "2 to");
+  expect_rejected("[0,10.5,20.25,1,11.0,21.0,2,12.0,22.0]", "[0,10.5,20.25,1,11.0]", "triples");
+  expect_rejected("[0,10.5,20.25,1,11.0,21.0,2,12.0,22.0]", "[0,10.5,20.25,1,911.0,21.0]",
+                  "outside the image");
+  expect_rejected("\"method\"", "\"colour\"", "unknown field");
+}
+
+TEST(Tracks, MergeLinksJoinsChainsAndDropsAmbiguousFrames) {
+  const std::vector<std::vector<cv::Point2f>> points = {{{1, 1}, {2, 2}}, {{3, 3}}, {{4, 4}, {5, 5}}};
+  // 0:0 - 1:0 - 2:0 is one chain; 0:1 - 2:0 would put two points of frame 0 into it (ambiguous).
+  const std::vector<Track> plain = merge_links_into_tracks(points, {{0, 0, 1, 0}, {1, 0, 2, 0}});
+  ASSERT_EQ(plain.size(), 1u);
+  ASSERT_EQ(plain[0].observations.size(), 3u);
+  EXPECT_FLOAT_EQ(plain[0].observations[2].x, 4.0f);
+  const std::vector<Track> ambiguous =
+      merge_links_into_tracks(points, {{0, 0, 1, 0}, {1, 0, 2, 0}, {0, 1, 2, 0}});
+  ASSERT_EQ(ambiguous.size(), 1u);
+  ASSERT_EQ(ambiguous[0].observations.size(), 2u);  // frame 0 dropped
+  EXPECT_EQ(ambiguous[0].observations[0].frame, 1);
+}
+
+// A textured image and a copy under a known homography: verified SIFT matches follow it.
+TEST(Features, SiftMatchesFollowAKnownHomography) {
+  cv::Mat base(480, 640, CV_8UC1);
+  cv::RNG rng(7);
+  rng.fill(base, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(base, base, cv::Size(0, 0), 2.0);
+  cv::normalize(base, base, 0, 255, cv::NORM_MINMAX);
+  cv::Matx33d H(0.95, 0.05, 12, -0.04, 0.97, 8, 1e-5, 2e-5, 1);
+  cv::Mat warped;
+  cv::warpPerspective(base, warped, cv::Mat(H), base.size(), cv::INTER_CUBIC);
+  const FrameFeatures a = detect_sift(base, {}, 4000), b = detect_sift(warped, {}, 4000);
+  const DescriptorIndex ia(a.descriptors), ib(b.descriptors);
+  const std::vector<FeatureMatch> matches = match_indexed(a.descriptors, ia, b.descriptors, ib);
+  ASSERT_GT(matches.size(), 200u);
+  std::size_t close = 0;
+  for (const FeatureMatch& m : matches) {
+    const cv::Point2f p = a.points[m.a], q = b.points[m.b];
+    const cv::Vec3d h = H * cv::Vec3d(p.x, p.y, 1);
+    const double dx = h[0] / h[2] - q.x, dy = h[1] / h[2] - q.y;
+    if (std::hypot(dx, dy) < 1.0) ++close;
+  }
+  EXPECT_GT(close, matches.size() * 9 / 10);
+  // The brute-force matcher agrees on most matches.
+  const std::vector<FeatureMatch> exact = match_descriptors(a.descriptors, b.descriptors);
+  EXPECT_GT(matches.size(), exact.size() * 8 / 10);
+}
+
+TEST(Klt, TracksAShiftedImageToSubPixelAccuracy) {
+  cv::Mat base(240, 320, CV_8UC1);
+  cv::RNG rng(3);
+  rng.fill(base, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(base, base, cv::Size(0, 0), 2.0);
+  cv::normalize(base, base, 0, 255, cv::NORM_MINMAX);
+  std::vector<cv::Mat> frames{base};
+  for (int f = 1; f < 4; ++f) {
+    cv::Mat shifted;
+    const cv::Matx23d shift(1, 0, 2.5 * f, 0, 1, -1.25 * f);
+    cv::warpAffine(base, shifted, cv::Mat(shift), base.size(), cv::INTER_CUBIC, cv::BORDER_REFLECT);
+    frames.push_back(shifted);
+  }
+  for (bool redetect : {false, true}) {
+    KltOptions options;
+    options.max_corners = 300;
+    options.redetect_every_frame = redetect;
+    const auto tracked = track_klt(frames, {}, options);
+    std::map<int, cv::Point2f> first;
+    for (const KltPoint& p : tracked[0]) first[p.track] = p.position;
+    std::size_t checked = 0;
+    for (const KltPoint& p : tracked[3]) {
+      if (!first.count(p.track)) continue;
+      const cv::Point2f expected = first[p.track] + cv::Point2f(7.5f, -3.75f);
+      // Away from the reflected border, where the shifted image is not a shift.
+      if (expected.x < 20 || expected.y < 20 || expected.x > 300 || expected.y > 220) continue;
+      EXPECT_NEAR(p.position.x, expected.x, redetect ? 0.6 : 0.1);
+      EXPECT_NEAR(p.position.y, expected.y, redetect ? 0.6 : 0.1);
+      ++checked;
+    }
+    EXPECT_GT(checked, 100u) << "redetect " << redetect;
+  }
+}
+
+}  // namespace
+}  // namespace pg

@@ -1,0 +1,241 @@
+// pg-track: sparse correspondences across an ordered image sequence and camera recovery with bundle
+// adjustment. Writes cameras.json, points.ply, tracks.json and top_view.png into --out.
+#include <algorithm>
+#include <iostream>
+
+#include "common/cli.h"
+#include "pg/camera/cameras_io.h"
+#include "pg/core/error.h"
+#include "pg/core/log.h"
+#include "pg/core/run_report.h"
+#include "pg/image/image_io.h"
+#include "pg/sfm/reconstruction.h"
+#include "pg/sfm/sfm_outputs.h"
+#include "pg/track/correspondences.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Options {
+  std::vector<std::string> images;
+  std::string out, cameras, masks, range, intrinsics = "auto", matcher = "sift";
+  double focal = 0;
+  bool refine_distortion = false, refine_principal_point = false, no_loops = false;
+  std::vector<std::string> scale;  // id_a id_b distance
+};
+
+bool is_image(const fs::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" ||
+         ext == ".exr" || ext == ".bmp" || ext == ".pgm" || ext == ".ppm";
+}
+
+// A folder (its images in name order) or a list of files.
+std::vector<fs::path> list_images(const std::vector<std::string>& given) {
+  std::vector<fs::path> images;
+  for (const std::string& g : given) {
+    if (fs::is_directory(g)) {
+      std::vector<fs::path> in_folder;
+      for (const auto& entry : fs::directory_iterator(g))
+        if (entry.is_regular_file() && is_image(entry.path())) in_folder.push_back(entry.path());
+      std::sort(in_folder.begin(), in_folder.end());
+      images.insert(images.end(), in_folder.begin(), in_folder.end());
+    } else {
+      images.push_back(g);
+    }
+  }
+  return images;
+}
+
+// "START:COUNT" (COUNT may be empty: to the end) over the image list.
+std::vector<fs::path> apply_range(const std::vector<fs::path>& images, const std::string& range) {
+  if (range.empty()) return images;
+  const auto colon = range.find(':');
+  try {
+    const std::size_t start = std::stoul(range.substr(0, colon));
+    const std::size_t count = colon == std::string::npos || colon + 1 == range.size()
+                                  ? images.size()
+                                  : std::stoul(range.substr(colon + 1));
+    if (start >= images.size())
+      throw pg::UsageError(pg::str("--range starts at ", start, " but there are ", images.size(), " images"));
+    return {images.begin() + start, images.begin() + std::min(images.size(), start + count)};
+  } catch (const std::logic_error&) {
+    throw pg::UsageError("--range must be START:COUNT, e.g. 10:50");
+  }
+}
+
+// Initial cameras: from --cameras (one camera for all frames, or one per frame id), else self-calibration.
+std::vector<pg::Camera> initial_cameras(const Options& o, const std::vector<pg::SequenceFrame>& frames,
+                                        const pg::TrackSet& tracks, bool& per_frame, bool& given) {
+  std::vector<pg::Camera> cameras;
+  per_frame = false;
+  given = !o.cameras.empty();
+  if (given) {
+    const pg::CameraSet set = pg::read_cameras(o.cameras);
+    if (set.cameras.empty()) throw pg::InputError(o.cameras, "holds no camera");
+    per_frame = set.cameras.size() > 1;
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      const pg::Camera* c = per_frame ? set.find(frames[f].id) : &set.cameras[0];
+      if (!c)
+        throw pg::InputError(o.cameras, pg::str("has no camera with the id of image ",
+                                                frames[f].image.string(), " ('", frames[f].id, "')"));
+      if (c->width != tracks.frames[f].width || c->height != tracks.frames[f].height)
+        throw pg::InputError(o.cameras, pg::str("camera ", c->id, " is ", c->width, "x", c->height,
+                                                " but image ", frames[f].image.string(), " is ",
+                                                tracks.frames[f].width, "x", tracks.frames[f].height));
+      pg::Camera cam = *c;
+      cam.image = frames[f].image.string();
+      cameras.push_back(cam);
+    }
+    return cameras;
+  }
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    pg::Camera c;
+    c.id = frames[f].id;
+    c.image = frames[f].image.string();
+    c.width = tracks.frames[f].width;
+    c.height = tracks.frames[f].height;
+    const double focal = o.focal > 0 ? o.focal : pg::default_focal_guess(c.width, c.height);
+    c.intrinsics = {focal, focal, (c.width - 1) / 2.0, (c.height - 1) / 2.0};
+    cameras.push_back(c);
+  }
+  return cameras;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  pg::cli::Frame frame(
+      {"pg-track",
+       "sparse correspondences and camera recovery (structure from motion) for an ordered sequence",
+       "pg-track --images shot/ --out track/\n"
+       "pg-track --images shot/ --cameras calib.json --intrinsics fixed --matcher klt --out track/\n"
+       "pg-track --images a.png b.png c.png --range 0:2 --scale a b 1.5 --out track/"});
+  CLI::App& app = frame.app();
+  Options o;
+  pg::CorrespondenceOptions co;
+  pg::SfmOptions so;
+  app.add_option("--images", o.images, "an image folder (name order) or image files, in sequence order")
+      ->required();
+  app.add_option("--out", o.out, "output folder: cameras.json, points.ply, tracks.json, top_view.png")
+      ->required();
+  app.add_option(
+      "--cameras", o.cameras,
+      "intrinsics (pg-cameras, e.g. from pg-calib): one camera for all images, or one per image id");
+  app.add_option("--intrinsics", o.intrinsics,
+                 "auto (fixed with --cameras, else self-calibrated), fixed, or refine")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "fixed", "refine"}));
+  app.add_option("--focal", o.focal,
+                 "initial focal length in pixels without --cameras (default 1.2 x the larger side)");
+  app.add_flag("--refine-distortion", o.refine_distortion, "also refine radial k1, k2");
+  app.add_flag("--refine-principal-point", o.refine_principal_point, "also refine the principal point");
+  app.add_option("--masks", o.masks, "folder of masks named like the images (<stem>.png); non-zero = usable");
+  app.add_option("--range", o.range, "START:COUNT, track a sub-sequence of the images");
+  app.add_option("--matcher", o.matcher, "sift, klt or shi-tomasi")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"sift", "klt", "shi-tomasi"}));
+  app.add_option("--downscale", co.downscale, "find features on images shrunk by this factor")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 16.0));
+  app.add_option("--max-features", co.max_features, "SIFT features per image")->capture_default_str();
+  app.add_option("--window", co.sequential_window, "match each image with the next N images")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
+  app.add_flag("--no-loops", o.no_loops, "do not match non-neighbouring images (no loop closure)");
+  app.add_option("--max-error", so.max_reprojection_px, "reprojection error bound for inliers, pixels")
+      ->capture_default_str();
+  app.add_option("--scale", o.scale, "ID_A ID_B METRES: scale so that these two cameras are this far apart")
+      ->expected(3);
+
+  return frame.run(argc, argv, [&] {
+    std::vector<fs::path> images = apply_range(list_images(o.images), o.range);
+    if (images.size() < 2)
+      throw pg::UsageError(pg::str("tracking needs at least 2 images, got ", images.size()));
+    for (const fs::path& p : images) frame.input(p);
+    if (!o.cameras.empty()) frame.input(o.cameras);
+    frame.output_dir(o.out);
+    std::vector<pg::SequenceFrame> frames;
+    for (const fs::path& p : images) {
+      pg::SequenceFrame f{p.stem().string(), p, {}};
+      if (!o.masks.empty()) {
+        const fs::path mask = fs::path(o.masks) / (p.stem().string() + ".png");
+        if (fs::exists(mask)) f.mask = mask, frame.input(mask);
+      }
+      for (const pg::SequenceFrame& g : frames)
+        if (g.id == f.id)
+          throw pg::UsageError(pg::str("two images named ", f.id, ": ", g.image.string(), ", ", p.string()));
+      frames.push_back(f);
+    }
+
+    co.method = pg::correspondence_method_from_string(o.matcher);
+    co.loop_matching = !o.no_loops;
+    pg::CorrespondenceResult correspondences;
+    {
+      pg::ScopedTimer timer("correspondences");
+      correspondences = pg::build_correspondences(frames, co);
+    }
+    pg::log::info("pg-track: ", correspondences.tracks.tracks.size(), " tracks over ", frames.size(),
+                  " images");
+
+    bool per_frame = false, given = false;
+    std::vector<pg::Camera> initial = initial_cameras(o, frames, correspondences.tracks, per_frame, given);
+    const bool refine = o.intrinsics == "refine" || (o.intrinsics == "auto" && !given);
+    so.shared_intrinsics = !per_frame;
+    so.refine_focal = refine;
+    so.refine_principal_point = refine && o.refine_principal_point;
+    so.refine_distortion = refine && o.refine_distortion;
+    so.threads = frame.threads();
+    so.max_reprojection_px *= co.downscale;
+    so.huber_px *= co.downscale;
+    pg::SfmResult result;
+    {
+      pg::ScopedTimer timer("reconstruction");
+      result = pg::reconstruct(correspondences.tracks, initial, so);
+    }
+    if (!o.scale.empty()) {
+      const double s = pg::scale_to_distance(result, o.scale[0], o.scale[1], std::stod(o.scale[2]));
+      pg::log::info("pg-track: scaled by ", s);
+    }
+    pg::color_points(result, correspondences.tracks);
+    for (std::size_t t = 0; t < correspondences.tracks.tracks.size(); ++t)
+      correspondences.tracks.tracks[t].point = result.track_point[t];
+
+    const fs::path out(o.out);
+    pg::CameraSet cameras = pg::registered_cameras(result);
+    pg::write_cameras(out / "cameras.json", cameras);
+    pg::write_sparse_points(out / "points.ply", result);
+    pg::write_tracks(out / "tracks.json", correspondences.tracks);
+    pg::write_image(out / "top_view.png", pg::render_top_view(result));
+    for (const char* name : {"cameras.json", "points.ply", "tracks.json", "top_view.png"})
+      pg::RunReport::global().add_output(out / name);
+
+    auto& report = pg::RunReport::global();
+    report.set_metric("images", frames.size());
+    report.set_metric("registered", cameras.cameras.size());
+    report.set_metric("unregistered", result.unregistered);
+    report.set_metric("tracks", correspondences.tracks.tracks.size());
+    report.set_metric("points", result.points.size());
+    report.set_metric("reprojection_rms_px", result.rms_px);
+    nlohmann::json per_camera = nlohmann::json::array();
+    for (std::size_t f = 0; f < result.cameras.size(); ++f)
+      per_camera.push_back({{"id", result.cameras[f].id},
+                            {"registered", static_cast<bool>(result.registered[f])},
+                            {"observations", result.frame_observations[f]},
+                            {"rms_px", result.frame_rms_px[f]}});
+    report.set_metric("cameras", per_camera);
+    const pg::Camera& first = cameras.cameras.front();
+    report.set_metric("focal_px", first.intrinsics.fx);
+    std::cout << "registered " << cameras.cameras.size() << "/" << frames.size() << " images, "
+              << result.points.size() << " points, reprojection RMS " << result.rms_px << " px, focal "
+              << first.intrinsics.fx << " px\n";
+    if (!result.unregistered.empty()) {
+      std::string list;
+      for (const std::string& id : result.unregistered) list += (list.empty() ? "" : ", ") + id;
+      pg::log::warn("pg-track: not registered: ", list);
+      std::cout << "not registered: " << list << "\n";
+    }
+  });
+}
