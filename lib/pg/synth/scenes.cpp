@@ -1,5 +1,6 @@
 #include "pg/synth/scenes.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -226,7 +227,11 @@ Scene make_deform_scene(const SceneOptions& o) {
   const float amplitude = 0.04f;
   for (std::size_t i = 0; i < scene.mesh.positions.size(); ++i) {
     Eigen::Vector3f d = (initial.positions[i] - Eigen::Vector3f(0, 0, 0.5f)).normalized();
-    float bulge = amplitude * (std::sin(2.0f * d.x() + 0.4f) * std::cos(1.5f * d.y()) + 0.5f * d.z());
+    // The camera ring looks down on the rock, so its underside is never seen: like a set piece resting
+    // on the ground, it cannot be corrected from the photographs, and the deformation fades out there.
+    float t = std::clamp((d.z() + 0.1f) / 0.4f, 0.0f, 1.0f);
+    float seen = t * t * (3 - 2 * t);
+    float bulge = amplitude * seen * (std::sin(2.0f * d.x() + 0.4f) * std::cos(1.5f * d.y()) + 0.5f * d.z());
     scene.mesh.positions[i] = initial.positions[i] + bulge * initial.normals[i];
   }
   initial.normals.clear();
@@ -244,7 +249,9 @@ Scene make_deform_scene(const SceneOptions& o) {
     c.cam_from_world = Rigid3::look_at(centre, Eigen::Vector3d(0, 0, 0.5));
     scene.cameras.cameras.push_back(c);
   }
-  scene.extras["deformation"] = {{"amplitude_m", amplitude}, {"direction", "along the rest-shape normals"}};
+  scene.extras["deformation"] = {{"amplitude_m", amplitude},
+                                 {"direction", "along the rest-shape normals"},
+                                 {"support", "fades out below the rock's equator, which no camera sees"}};
   return scene;
 }
 
