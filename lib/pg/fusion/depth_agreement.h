@@ -1,0 +1,17 @@
+#pragma once
+// How well a merged surface explains a depth frame: the fraction of valid depth pixels whose ray
+// meets the mesh within a tolerance of the measured depth (measured along the ray).
+#include "pg/fusion/depth_frame.h"
+#include "pg/mesh/bvh.h"
+
+namespace pg::fusion {
+
+struct DepthAgreement {
+  std::size_t valid_pixels = 0;  // finite depth (masks and weights ignored)
+  std::size_t agreeing = 0;      // the first mesh hit along the ray lies within the tolerance
+  double fraction() const { return valid_pixels ? double(agreeing) / double(valid_pixels) : 0.0; }
+};
+
+DepthAgreement depth_agreement(const TriangleBvh& mesh, const DepthFrame& frame, double tolerance);
+
+}  // namespace pg::fusion

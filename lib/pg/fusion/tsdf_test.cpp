@@ -1,0 +1,247 @@
+#include <gtest/gtest.h>
+
+#include "pg/core/error.h"
+#include "pg/eval/mesh_eval.h"
+#include "pg/fusion/depth_agreement.h"
+#include "pg/fusion/fusion_test_scenes.h"
+#include "pg/fusion/mesh_cleanup.h"
+#include "pg/fusion/tsdf_volume.h"
+#include "pg/testing/testing.h"
+
+namespace pg::fusion {
+namespace {
+
+using testing::orbit;
+using testing::render_depth;
+
+Mesh set_scene() {
+  Mesh scene = testing::ground(2.0f);
+  testing::append(scene, testing::box({0.3f, -0.6f, 0.0f}, {0.9f, 0.0f, 0.5f}));
+  testing::append(scene, testing::sphere({-0.5f, 0.4f, 0.45f}, 0.45f));
+  return scene;
+}
+
+std::vector<DepthFrame> frames_of(const Mesh& scene, const std::vector<Camera>& cameras,
+                                  const WeightOptions& weights = {}) {
+  const TriangleBvh bvh(scene);
+  std::vector<DepthFrame> frames;
+  for (const Camera& camera : cameras)
+    frames.push_back(make_depth_frame(render_depth(bvh, camera), camera.id, weights));
+  return frames;
+}
+
+// The faces of the truth that some frame sees (their centre is within `tolerance` of its depth).
+Mesh observed_part(const Mesh& truth, const std::vector<DepthFrame>& frames, double tolerance) {
+  Mesh seen;
+  seen.positions = truth.positions;
+  for (const auto& f : truth.faces) {
+    const Eigen::Vector3d centre =
+        ((truth.positions[f[0]] + truth.positions[f[1]] + truth.positions[f[2]]) / 3.0f).cast<double>();
+    for (const DepthFrame& frame : frames) {
+      const Eigen::Vector3d p = frame.camera.cam_from_world * centre;
+      Eigen::Vector2d pixel;
+      if (!frame.camera.project(p, pixel) || !frame.camera.in_image(pixel)) continue;
+      const float d = frame.depth(int(std::lround(pixel.y())), int(std::lround(pixel.x())));
+      if (std::isfinite(d) && std::abs(d - p.z()) < tolerance) {
+        seen.faces.push_back(f);
+        break;
+      }
+    }
+  }
+  remove_unused_vertices(seen);
+  return seen;
+}
+
+TEST(Tsdf, ExactDepthMapsGiveAccuracyBelowOneVoxelAndCompleteness) {
+  const double voxel = 0.03;
+  const Mesh truth = set_scene();
+  const auto frames = frames_of(truth, orbit(12, 3.0, 1.8, {0, 0, 0.2}, 128, 96, 110));
+  TsdfVolume volume({.voxel_size = voxel});
+  for (const auto& frame : frames) volume.integrate(frame);
+  const Mesh merged = volume.extract_mesh();
+  ASSERT_GT(merged.face_count(), 1000u);
+  const Mesh seen = observed_part(truth, frames, voxel / 2);
+  const MeshEvalResult eval =
+      evaluate_mesh(merged, seen, {.samples = 30000, .thresholds = {voxel, 2 * voxel}});
+  std::cout << "synthetic set, voxel " << voxel << ": accuracy p90 " << eval.accuracy.p90
+            << ", completeness within 2v " << eval.recall[1] << ", faces " << merged.face_count() << "\n";
+  EXPECT_LT(eval.accuracy.p90, voxel);
+  EXPECT_GT(eval.recall[1], 0.95);
+  // Confidence is the accumulated weight: present, positive.
+  ASSERT_EQ(merged.vertex_properties.at("confidence").size(), merged.vertex_count());
+  for (float c : merged.vertex_properties.at("confidence")) ASSERT_GT(c, 0.0f);
+}
+
+TEST(Tsdf, SphereIsWoundOutwardsAndLiesOnTheTrueRadius) {
+  const double voxel = 0.02, radius = 0.5;
+  const Mesh truth = testing::sphere({0, 0, 0}, float(radius), 96, 192);
+  std::vector<Camera> cameras = orbit(8, 2.0, 0.8, {0, 0, 0}, 96, 96, 100);
+  for (const auto& c : orbit(4, 0.3, -2.0, {0, 0, 0}, 96, 96, 100)) cameras.push_back(c);
+  TsdfVolume volume({.voxel_size = voxel, .truncation = 3 * voxel});
+  for (const auto& frame : frames_of(truth, cameras)) volume.integrate(frame);
+  const Mesh merged = volume.extract_mesh();
+  ASSERT_GT(merged.face_count(), 1000u);
+  std::size_t outward = 0;
+  double worst = 0;
+  for (const auto& f : merged.faces) {
+    const Eigen::Vector3f a = merged.positions[f[0]], b = merged.positions[f[1]], c = merged.positions[f[2]];
+    outward += (b - a).cross(c - a).dot(a + b + c) > 0;
+  }
+  for (const auto& p : merged.positions) worst = std::max(worst, std::abs(p.norm() - radius));
+  EXPECT_GT(double(outward) / merged.face_count(), 0.99);
+  EXPECT_LT(worst, voxel / 2);  // the TSDF of a smooth surface is exact to interpolation error
+  // Distances are measured along the viewing rays: at least the true distance, more for oblique rays.
+  ASSERT_TRUE(volume.distance_at({radius + 0.01, 0, 0}).has_value());
+  EXPECT_GT(*volume.distance_at({radius + 0.01, 0, 0}), 0.01 - voxel / 8);
+  EXPECT_LT(*volume.distance_at({radius + 0.01, 0, 0}), 0.02);
+  EXPECT_FALSE(volume.distance_at({0, 0, 0}).has_value());  // the inside was never observed
+}
+
+TEST(Tsdf, PartialVolumesCombineToTheSingleRun) {
+  const double voxel = 0.04;
+  const auto frames = frames_of(set_scene(), orbit(6, 3.0, 1.8, {0, 0, 0.2}, 96, 72, 85));
+  TsdfVolume single({.voxel_size = voxel}), first({.voxel_size = voxel}), second({.voxel_size = voxel});
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    single.integrate(frames[i]);
+    (i % 2 ? second : first).integrate(frames[i]);
+  }
+  first.merge_partial(second);
+  const auto difference = single.compare(first);
+  EXPECT_LT(difference.distance, 1e-6 * single.truncation() * 100);
+  EXPECT_LT(difference.weight_relative, 1e-5);
+  EXPECT_EQ(single.active_voxel_count(), first.active_voxel_count());
+
+  // Through .vdb files, as farm jobs would pass them.
+  pg::testing::TempDir dir;
+  first.write_vdb(dir / "combined.vdb", Provenance::current());
+  Provenance provenance;
+  const TsdfVolume read = TsdfVolume::read_vdb(dir / "combined.vdb", &provenance);
+  EXPECT_EQ(read.compare(first).distance, 0.0);
+  EXPECT_EQ(read.compare(first).weight_relative, 0.0);
+  EXPECT_DOUBLE_EQ(read.voxel_size(), voxel);
+  EXPECT_DOUBLE_EQ(read.truncation(), first.truncation());
+  EXPECT_EQ(provenance.tool, Provenance::current().tool);
+
+  TsdfVolume other({.voxel_size = voxel * 2});
+  EXPECT_THROW(other.merge_partial(first), UsageError);
+}
+
+TEST(Tsdf, SphericalRangeMapsMergeARoom) {
+  const double voxel = 0.05;
+  const Mesh room = testing::box({-2, -1.5, -1.2f}, {2.5f, 1.5, 1.3f}, 10, true);
+  Camera pano;
+  pano.model = CameraModel::equirectangular;
+  pano.width = 256;
+  pano.height = 128;
+  std::vector<DepthFrame> frames;
+  const TriangleBvh bvh(room);
+  for (double x : {0.0, 0.6}) {
+    pano.cam_from_world = Rigid3{Eigen::Quaterniond::Identity(), Eigen::Vector3d(-x, 0.1, 0)};
+    frames.push_back(make_depth_frame(render_depth(bvh, pano), "pano", {}));
+  }
+  EXPECT_EQ(frames[0].kind, DepthKind::spherical_range);
+  TsdfVolume volume({.voxel_size = voxel});
+  for (const auto& f : frames) volume.integrate(f);
+  const Mesh merged = volume.extract_mesh();
+  const MeshEvalResult eval = evaluate_mesh(merged, room, {.samples = 20000, .thresholds = {2 * voxel}});
+  std::cout << "room panoramas: accuracy p90 " << eval.accuracy.p90 << ", completeness " << eval.recall[0]
+            << "\n";
+  EXPECT_LT(eval.accuracy.p90, voxel);
+  EXPECT_GT(eval.recall[0], 0.95);
+}
+
+TEST(Tsdf, ColourAndMasksReachTheMesh) {
+  const double voxel = 0.04;
+  const Mesh plane = testing::ground(1.0f);
+  const auto cameras = orbit(3, 1.5, 1.5, {0, 0, 0}, 64, 48, 60);
+  const TriangleBvh bvh(plane);
+  TsdfVolume volume({.voxel_size = voxel, .color = true});
+  for (const Camera& camera : cameras) {
+    cv::Mat mask(48, 64, CV_8UC1, cv::Scalar(0));
+    mask.colRange(0, 32).setTo(255);                           // the left half is ignored
+    cv::Mat color(48, 64, CV_8UC3, cv::Scalar(30, 120, 200));  // BGR
+    volume.integrate(make_depth_frame(render_depth(bvh, camera), camera.id, {}, mask, color));
+  }
+  const Mesh merged = volume.extract_mesh();
+  ASSERT_GT(merged.face_count(), 100u);
+  ASSERT_EQ(merged.colors.size(), merged.vertex_count());
+  for (const auto& c : merged.colors) {
+    EXPECT_EQ(c[0], 200);
+    EXPECT_EQ(c[2], 30);
+  }
+  // No vertex is on the ignored side of any camera... every vertex projects into the kept half of some
+  // camera.
+  for (const auto& p : merged.positions) {
+    bool kept = false;
+    for (const Camera& camera : cameras) {
+      Eigen::Vector2d pixel;
+      kept |= camera.project_world(p.cast<double>(), pixel) && pixel.x() >= 31.5 - 1.5;
+    }
+    EXPECT_TRUE(kept);
+  }
+}
+
+TEST(Tsdf, MemoryLimitFailsBeforeAllocating) {
+  const auto frames = frames_of(set_scene(), orbit(1, 3.0, 1.8, {0, 0, 0.2}, 96, 72, 85));
+  TsdfVolume volume({.voxel_size = 0.002, .max_memory = 8 << 20});
+  try {
+    volume.integrate(frames[0]);
+    FAIL() << "expected an out-of-memory error " << volume.leaf_count() << " " << volume.memory_bytes();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::out_of_memory);
+    EXPECT_NE(std::string(e.what()).find("--max-memory"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(volume.leaf_count(), 0u);
+}
+
+TEST(Tsdf, BadDepthInputsAreClearErrors) {
+  DepthMap empty;
+  empty.camera = testing::pinhole_camera(8, 6, 10, {0, 0, -1}, {0, 0, 0});
+  empty.depth = cv::Mat1f(6, 8, NAN);
+  EXPECT_THROW(make_depth_frame(empty, "nan.exr", {}), InputError);
+  DepthMap one = empty;
+  one.depth = cv::Mat1f(6, 8, 1.0f);
+  try {
+    make_depth_frame(one, "d.exr", {}, cv::Mat(5, 8, CV_8UC1, cv::Scalar(0)), {}, "mask.png");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("mask.png: mask is 8x5 but the depth map d.exr is 8x6"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(TsdfVolume({.voxel_size = 0}), UsageError);
+  pg::testing::TempDir dir;
+  pg::testing::write_text(dir / "not.vdb", "garbage");
+  EXPECT_THROW(TsdfVolume::read_vdb(dir / "not.vdb"), InputError);
+}
+
+TEST(Tsdf, WeightsFollowTheDocumentedFactors) {
+  DepthMap map;
+  map.camera = testing::pinhole_camera(21, 21, 20, {0, 0, 1}, {0, 0, 0});  // looks straight down at z = 0
+  map.depth = cv::Mat1f(21, 21, 1.0f);
+  map.confidence = cv::Mat1f(21, 21, 0.5f);
+  map.camera.quality = 0.8;
+  const DepthFrame frame =
+      make_depth_frame(map, "plane", {.centre_falloff = 0.5, .use_angle = false, .multiplier = 2});
+  EXPECT_NEAR(frame.weight(10, 10), 2 * 0.8 * 0.5, 1e-6);
+  EXPECT_NEAR(frame.weight(0, 0), 2 * 0.8 * 0.5 * (1 - 0.5 * (200.0 / 220.5)), 1e-6);
+  // Angle: a plane seen head-on has cos = 1 at the centre, cos of the ray angle off-centre.
+  const DepthFrame angled =
+      make_depth_frame(map, "plane", {.centre_falloff = 0, .use_confidence = false, .use_quality = false});
+  EXPECT_NEAR(angled.weight(10, 10), 1.0, 1e-5);
+  EXPECT_NEAR(angled.weight(10, 0), 20 / std::sqrt(400.0 + 100.0), 1e-4);
+}
+
+TEST(MeshCleanup, RemovesSmallPieces) {
+  Mesh mesh = testing::sphere({0, 0, 0}, 1.0f, 8, 16);
+  testing::append(mesh, testing::sphere({5, 0, 0}, 0.1f, 3, 4));
+  mesh.vertex_properties["confidence"].assign(mesh.vertex_count(), 1.0f);
+  const std::size_t big = testing::sphere({0, 0, 0}, 1.0f, 8, 16).face_count();
+  EXPECT_EQ(remove_small_components(mesh, 0, 0.5), 1u);
+  EXPECT_EQ(mesh.face_count(), big);
+  EXPECT_EQ(mesh.vertex_properties["confidence"].size(), mesh.vertex_count());
+  for (const auto& p : mesh.positions) EXPECT_LT(p.norm(), 1.01f);
+}
+
+}  // namespace
+}  // namespace pg::fusion

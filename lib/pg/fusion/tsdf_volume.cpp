@@ -1,0 +1,410 @@
+// Integration of frames, scans and partial volumes into the TSDF grids.
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <mutex>
+
+#include "pg/core/error.h"
+#include "pg/core/log.h"
+#include "pg/fusion/tsdf_grids.h"
+#include "pg/mesh/bvh.h"
+
+namespace pg::fusion {
+namespace {
+
+using openvdb::Coord;
+using openvdb::MaskTree;
+constexpr int leaf_voxels = openvdb::FloatTree::LeafNodeType::SIZE;  // 512
+
+// Marks the leaves that a segment of rays touches, one thread-local tree per worker, then unites them.
+class LeafCollector {
+ public:
+  explicit LeafCollector(double voxel_size) : inverse_voxel_(1.0 / voxel_size), step_(voxel_size) {}
+
+  // Marks the leaves of the voxels along from + t * direction, t in [t0, t1] (direction unit).
+  void touch_segment(const Eigen::Vector3d& from, const Eigen::Vector3d& direction, double t0, double t1) {
+    auto& accessor = accessors_.local();
+    for (double t = t0;; t += step_) {
+      const double tt = std::min(t, t1);
+      accessor.touchLeaf(nearest_voxel(from + direction * tt, inverse_voxel_));
+      if (tt >= t1) break;
+    }
+  }
+
+  std::vector<Coord> leaf_origins() {
+    MaskTree all;
+    for (auto& local : accessors_) all.topologyUnion(*local.tree);
+    std::vector<Coord> origins;
+    origins.reserve(all.leafCount());
+    for (auto leaf = all.cbeginLeaf(); leaf; ++leaf) origins.push_back(leaf->origin());
+    return origins;
+  }
+
+ private:
+  struct Local {
+    std::unique_ptr<MaskTree> tree = std::make_unique<MaskTree>();
+    openvdb::tree::ValueAccessor<MaskTree> accessor{*tree};
+    void touchLeaf(const Coord& c) { accessor.setValueOn(c); }
+  };
+  double inverse_voxel_, step_;
+  tbb::enumerable_thread_specific<Local> accessors_;
+};
+
+// Where a world point falls in a frame: the pixel it projects to, and its distance from the
+// camera centre along that pixel's ray.
+struct FrameProjector {
+  const DepthFrame& frame;
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d translation;
+  bool plain_pinhole;
+  double fx, fy, cx, cy;
+
+  explicit FrameProjector(const DepthFrame& f)
+      : frame(f),
+        rotation(f.camera.cam_from_world.rotation_matrix()),
+        translation(f.camera.cam_from_world.translation),
+        plain_pinhole(f.camera.model == CameraModel::pinhole && f.camera.distortion.is_zero()),
+        fx(f.camera.intrinsics.fx),
+        fy(f.camera.intrinsics.fy),
+        cx(f.camera.intrinsics.cx),
+        cy(f.camera.intrinsics.cy) {}
+
+  // The signed distance along the ray (positive in front of the measured surface) and the pixel;
+  // false when the point does not land on a valid, weighted pixel.
+  bool sample(const Eigen::Vector3d& world, double& distance, int& px, int& py) const {
+    const Eigen::Vector3d p = rotation * world + translation;
+    Eigen::Vector2d pixel;
+    if (plain_pinhole) {
+      if (p.z() <= 0) return false;
+      pixel = {fx * p.x() / p.z() + cx, fy * p.y() / p.z() + cy};
+    } else if (!frame.camera.project(p, pixel)) {
+      return false;
+    }
+    px = int(std::floor(pixel.x() + 0.5));
+    py = int(std::floor(pixel.y() + 0.5));
+    if (px < 0 || py < 0 || px >= frame.depth.cols || py >= frame.depth.rows) return false;
+    if (!(frame.weight(py, px) > 0)) return false;
+    const float d = frame.depth(py, px);
+    if (!std::isfinite(d)) return false;
+    const double range = p.norm();
+    if (frame.kind == DepthKind::perspective_z) {
+      if (p.z() <= 0) return false;
+      distance = range * (d / p.z() - 1.0);  // the z difference, scaled to a distance along the ray
+    } else {
+      distance = d - range;
+    }
+    return true;
+  }
+};
+
+openvdb::Vec3s linear_color(const cv::Vec3b& bgr) {
+  return openvdb::Vec3s(bgr[2] / 255.0f, bgr[1] / 255.0f, bgr[0] / 255.0f);
+}
+
+}  // namespace
+
+void initialize_openvdb() {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+}
+
+TsdfVolume::TsdfVolume(const TsdfOptions& options) : grids_(std::make_unique<Grids>()) {
+  if (!(options.voxel_size > 0) || !std::isfinite(options.voxel_size))
+    throw UsageError(str("the voxel size must be positive, not ", options.voxel_size));
+  if (options.truncation < 0) throw UsageError("the truncation must not be negative");
+  initialize_openvdb();
+  Grids& g = *grids_;
+  g.options = options;
+  g.truncation = options.truncation > 0 ? options.truncation : 4 * options.voxel_size;
+  if (g.truncation < options.voxel_size)
+    throw UsageError(
+        str("the truncation (", g.truncation, ") must be at least one voxel (", options.voxel_size, ")"));
+  const auto transform = openvdb::math::Transform::createLinearTransform(options.voxel_size);
+  g.surface = openvdb::FloatGrid::create(float(g.truncation));
+  g.surface->setName("surface");
+  g.surface->setGridClass(openvdb::GRID_LEVEL_SET);
+  g.surface->setTransform(transform);
+  g.weight = openvdb::FloatGrid::create(0.0f);
+  g.weight->setName("weight");
+  g.weight->setTransform(transform->copy());
+  if (options.color) {
+    g.color = openvdb::Vec3SGrid::create(openvdb::Vec3s(0, 0, 0));
+    g.color->setName("Cd");
+    g.color->setTransform(transform->copy());
+    g.color_weight = openvdb::FloatGrid::create(0.0f);
+    g.color_weight->setName("Cd_weight");
+    g.color_weight->setTransform(transform->copy());
+  }
+}
+
+TsdfVolume::TsdfVolume(std::unique_ptr<Grids> grids) : grids_(std::move(grids)) {}
+TsdfVolume::~TsdfVolume() = default;
+TsdfVolume::TsdfVolume(TsdfVolume&&) noexcept = default;
+TsdfVolume& TsdfVolume::operator=(TsdfVolume&&) noexcept = default;
+
+double TsdfVolume::voxel_size() const {
+  return grids_->options.voxel_size;
+}
+double TsdfVolume::truncation() const {
+  return grids_->truncation;
+}
+bool TsdfVolume::has_color() const {
+  return bool(grids_->color);
+}
+std::size_t TsdfVolume::leaf_count() const {
+  return grids_->surface->tree().leafCount();
+}
+std::uint64_t TsdfVolume::active_voxel_count() const {
+  return grids_->weight->activeVoxelCount();
+}
+std::uint64_t TsdfVolume::memory_bytes() const {
+  std::uint64_t bytes = grids_->surface->memUsage() + grids_->weight->memUsage();
+  if (grids_->color) bytes += grids_->color->memUsage() + grids_->color_weight->memUsage();
+  return bytes;
+}
+
+std::uint64_t TsdfVolume::bytes_per_leaf(bool color) {
+  // Voxel values plus the leaf itself, and half as much again for the internal nodes above sparse
+  // leaves (measured on depth-map merges: 3.4 kB per float leaf).
+  const std::uint64_t scalar = leaf_voxels * sizeof(float) + sizeof(openvdb::FloatTree::LeafNodeType);
+  const std::uint64_t vector =
+      leaf_voxels * sizeof(openvdb::Vec3s) + sizeof(openvdb::Vec3STree::LeafNodeType);
+  return (2 * scalar + (color ? vector + scalar : 0)) * 3 / 2;
+}
+
+void TsdfVolume::check_memory(std::size_t new_leaves, const std::string& input) const {
+  const std::uint64_t limit = grids_->options.max_memory;
+  if (limit == 0) return;
+  const std::uint64_t needed = (leaf_count() + new_leaves) * bytes_per_leaf(has_color());
+  if (needed > limit)
+    throw Error(ExitCode::out_of_memory,
+                str("merging ", input, " at voxel size ", voxel_size(), " needs about ", needed / (1 << 20),
+                    " MiB for the grids, more than --max-memory ", limit / (1 << 20),
+                    " MiB (use a larger voxel size or more memory)"));
+}
+
+namespace {
+
+// Creates the leaves (in every grid) that are not there yet; returns how many were new.
+std::size_t allocate_leaves(TsdfVolume::Grids& g, const std::vector<Coord>& origins) {
+  std::size_t created = 0;
+  for (const Coord& origin : origins) {
+    if (g.surface->tree().probeConstLeaf(origin)) continue;
+    ++created;
+    g.surface->tree().touchLeaf(origin);
+    g.weight->tree().touchLeaf(origin);
+    if (g.color) {
+      g.color->tree().touchLeaf(origin);
+      g.color_weight->tree().touchLeaf(origin);
+    }
+  }
+  return created;
+}
+
+std::size_t count_new_leaves(const TsdfVolume::Grids& g, const std::vector<Coord>& origins) {
+  std::size_t count = 0;
+  for (const Coord& origin : origins) count += g.surface->tree().probeConstLeaf(origin) == nullptr;
+  return count;
+}
+
+// Leaves that received no sample are returned to the background so memory follows the surface.
+void drop_empty_leaves(TsdfVolume::Grids& g, const std::vector<Coord>& origins) {
+  for (const Coord& origin : origins) {
+    const auto* leaf = g.weight->tree().probeConstLeaf(origin);
+    if (!leaf || !leaf->isEmpty()) continue;
+    g.surface->tree().addTile(1, origin, g.surface->background(), false);
+    g.weight->tree().addTile(1, origin, 0.0f, false);
+    if (g.color) {
+      g.color->tree().addTile(1, origin, openvdb::Vec3s(0, 0, 0), false);
+      g.color_weight->tree().addTile(1, origin, 0.0f, false);
+    }
+  }
+}
+
+struct LeafSet {
+  openvdb::FloatTree::LeafNodeType* surface;
+  openvdb::FloatTree::LeafNodeType* weight;
+  openvdb::Vec3STree::LeafNodeType* color;
+  openvdb::FloatTree::LeafNodeType* color_weight;
+};
+
+LeafSet leaves_at(TsdfVolume::Grids& g, const Coord& origin) {
+  return {g.surface->tree().probeLeaf(origin), g.weight->tree().probeLeaf(origin),
+          g.color ? g.color->tree().probeLeaf(origin) : nullptr,
+          g.color_weight ? g.color_weight->tree().probeLeaf(origin) : nullptr};
+}
+
+// The running weighted mean of Curless & Levoy: D = (W D + w d) / (W + w), W = W + w.
+inline void accumulate(LeafSet& leaves, int n, float distance, float w) {
+  const float w0 = leaves.weight->isValueOn(n) ? leaves.weight->getValue(n) : 0.0f;
+  const float d0 = w0 > 0 ? leaves.surface->getValue(n) : 0.0f;
+  const float w1 = w0 + w;
+  leaves.surface->setValueOn(n, (d0 * w0 + distance * w) / w1);
+  leaves.weight->setValueOn(n, w1);
+}
+
+inline void accumulate_color(LeafSet& leaves, int n, const openvdb::Vec3s& color, float w) {
+  const float w0 = leaves.color_weight->isValueOn(n) ? leaves.color_weight->getValue(n) : 0.0f;
+  const openvdb::Vec3s c0 = w0 > 0 ? leaves.color->getValue(n) : openvdb::Vec3s(0, 0, 0);
+  const float w1 = w0 + w;
+  leaves.color->setValueOn(n, (c0 * w0 + color * w) / w1);
+  leaves.color_weight->setValueOn(n, w1);
+}
+
+}  // namespace
+
+void TsdfVolume::integrate(const DepthFrame& frame) {
+  Grids& g = *grids_;
+  const double truncation = g.truncation;
+  const double voxel = voxel_size();
+  const Rigid3 world_from_cam = frame.camera.cam_from_world.inverse();
+  const Eigen::Matrix3d world_rotation = world_from_cam.rotation_matrix();
+  const Eigen::Vector3d centre = world_from_cam.translation;
+  if (frame.depth.size() != frame.weight.size() ||
+      (!frame.color.empty() && frame.color.size() != frame.depth.size()))
+    throw FailedError(str(frame.name, ": depth, weight and colour sizes differ"));
+
+  LeafCollector collector(voxel);
+  tbb::parallel_for(tbb::blocked_range<int>(0, frame.depth.rows), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < frame.depth.cols; ++x) {
+        const float d = frame.depth(y, x);
+        if (!(frame.weight(y, x) > 0) || !std::isfinite(d)) continue;
+        const Eigen::Vector3d ray = frame.camera.unproject(Eigen::Vector2d(x, y));
+        const double range = frame.kind == DepthKind::perspective_z ? d / ray.z() : d;
+        collector.touch_segment(centre, world_rotation * ray, std::max(0.0, range - truncation),
+                                range + truncation);
+      }
+  });
+  const std::vector<Coord> origins = collector.leaf_origins();
+  check_memory(count_new_leaves(g, origins), frame.name);
+  allocate_leaves(g, origins);
+
+  const FrameProjector projector(frame);
+  const bool with_color = g.color && !frame.color.empty();
+  const cv::Mat3b color = frame.color;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, origins.size()),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i < r.end(); ++i) {
+                        LeafSet leaves = leaves_at(g, origins[i]);
+                        for (int n = 0; n < leaf_voxels; ++n) {
+                          const Coord c = leaves.surface->offsetToGlobalCoord(n);
+                          const Eigen::Vector3d world(c.x() * voxel, c.y() * voxel, c.z() * voxel);
+                          double distance;
+                          int px, py;
+                          if (!projector.sample(world, distance, px, py)) continue;
+                          // Behind the surface only as deep as the band, measured across the surface (not
+                          // along the ray, which would leave grazing surfaces with a band too thin to hold
+                          // both signs). Behind the surface the weight ramps down to zero at the band's end
+                          // (Curless & Levoy).
+                          const double cos_angle = frame.cos_angle.empty() ? 1.0 : frame.cos_angle(py, px);
+                          const double depth_behind = -std::min(0.0, distance * cos_angle);
+                          if (depth_behind >= truncation) continue;
+                          const float w = float(frame.weight(py, px) * (1.0 - depth_behind / truncation));
+                          accumulate(leaves, n, float(std::clamp(distance, -truncation, truncation)), w);
+                          if (with_color) accumulate_color(leaves, n, linear_color(color(py, px)), w);
+                        }
+                      }
+                    });
+  drop_empty_leaves(g, origins);
+}
+
+void TsdfVolume::integrate(const ScanSurface& scan) {
+  Grids& g = *grids_;
+  const double truncation = g.truncation;
+  const double voxel = voxel_size();
+  const Mesh& mesh = scan.mesh;
+  if (scan.sensor_origin.has_value() == scan.sensor_direction.has_value())
+    throw UsageError(str(scan.name, ": a scan needs exactly one of a sensor origin or direction"));
+  auto ray_direction = [&](const Eigen::Vector3d& point) -> Eigen::Vector3d {
+    return scan.sensor_direction ? *scan.sensor_direction
+                                 : Eigen::Vector3d((point - *scan.sensor_origin).normalized());
+  };
+
+  // Touch the band along the sensor ray through points spread over every triangle (at most a voxel apart).
+  LeafCollector collector(voxel);
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, mesh.faces.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t f = r.begin(); f < r.end(); ++f) {
+          const Eigen::Vector3d a = mesh.positions[mesh.faces[f][0]].cast<double>();
+          const Eigen::Vector3d b = mesh.positions[mesh.faces[f][1]].cast<double>();
+          const Eigen::Vector3d c = mesh.positions[mesh.faces[f][2]].cast<double>();
+          const double longest = std::max({(a - b).norm(), (b - c).norm(), (c - a).norm()});
+          const int steps = std::max(1, int(std::ceil(longest / voxel)));
+          for (int i = 0; i <= steps; ++i)
+            for (int j = 0; i + j <= steps; ++j) {
+              const Eigen::Vector3d p = a + (b - a) * (double(i) / steps) + (c - a) * (double(j) / steps);
+              const Eigen::Vector3d direction = ray_direction(p);
+              collector.touch_segment(p, direction, -truncation, truncation);
+            }
+        }
+      });
+  const std::vector<Coord> origins = collector.leaf_origins();
+  check_memory(count_new_leaves(g, origins), scan.name);
+  allocate_leaves(g, origins);
+
+  const TriangleBvh bvh(mesh);
+  std::vector<Eigen::Vector3d> face_normals(mesh.faces.size());
+  for (std::size_t f = 0; f < mesh.faces.size(); ++f) {
+    const Eigen::Vector3d a = mesh.positions[mesh.faces[f][0]].cast<double>();
+    const Eigen::Vector3d b = mesh.positions[mesh.faces[f][1]].cast<double>();
+    const Eigen::Vector3d c = mesh.positions[mesh.faces[f][2]].cast<double>();
+    face_normals[f] = (b - a).cross(c - a).normalized();
+  }
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, origins.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+          LeafSet leaves = leaves_at(g, origins[i]);
+          for (int n = 0; n < leaf_voxels; ++n) {
+            const Coord c = leaves.surface->offsetToGlobalCoord(n);
+            const Eigen::Vector3d world(c.x() * voxel, c.y() * voxel, c.z() * voxel);
+            const Eigen::Vector3d direction = ray_direction(world);
+            // The first surface along the ray, starting one truncation towards the sensor.
+            const Eigen::Vector3d start = world - direction * truncation;
+            const TriangleBvh::RayHit hit =
+                bvh.intersect(start.cast<float>(), direction.cast<float>(), float(2 * truncation));
+            if (!hit.hit) continue;
+            const double cos_angle = std::abs(face_normals[hit.face].dot(direction));
+            if (!(cos_angle >= scan.min_cos)) continue;
+            accumulate(leaves, n, float(hit.t - truncation), float(cos_angle * scan.multiplier));
+          }
+        }
+      });
+  drop_empty_leaves(g, origins);
+}
+
+void TsdfVolume::merge_partial(const TsdfVolume& partial) {
+  Grids& g = *grids_;
+  const Grids& p = *partial.grids_;
+  if (std::abs(p.options.voxel_size - g.options.voxel_size) > 1e-12 * g.options.voxel_size ||
+      std::abs(p.truncation - g.truncation) > 1e-12 * g.truncation)
+    throw UsageError(str("partial volumes differ: voxel size ", p.options.voxel_size, " vs ",
+                         g.options.voxel_size, ", truncation ", p.truncation, " vs ", g.truncation));
+  std::vector<Coord> origins;
+  for (auto leaf = p.weight->tree().cbeginLeaf(); leaf; ++leaf) origins.push_back(leaf->origin());
+  check_memory(count_new_leaves(g, origins), "a partial volume");
+  allocate_leaves(g, origins);
+  const bool with_color = g.color && p.color;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, origins.size()),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i < r.end(); ++i) {
+                        LeafSet leaves = leaves_at(g, origins[i]);
+                        const auto* weight = p.weight->tree().probeConstLeaf(origins[i]);
+                        const auto* surface = p.surface->tree().probeConstLeaf(origins[i]);
+                        for (auto v = weight->cbeginValueOn(); v; ++v) {
+                          const int n = int(v.pos());
+                          accumulate(leaves, n, surface->getValue(n), *v);
+                        }
+                        if (!with_color) continue;
+                        const auto* color_weight = p.color_weight->tree().probeConstLeaf(origins[i]);
+                        const auto* color = p.color->tree().probeConstLeaf(origins[i]);
+                        if (!color_weight || !color) continue;
+                        for (auto v = color_weight->cbeginValueOn(); v; ++v)
+                          accumulate_color(leaves, int(v.pos()), color->getValue(v.pos()), *v);
+                      }
+                    });
+  drop_empty_leaves(g, origins);
+}
+
+}  // namespace pg::fusion

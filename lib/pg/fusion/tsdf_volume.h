@@ -1,0 +1,89 @@
+#pragma once
+// Volumetric merging after Curless & Levoy 1996: a truncated signed distance and its accumulated
+// weight on OpenVDB sparse grids, so memory follows the observed surface, not its bounding box.
+// Frames and scans are integrated one at a time; partial volumes from farm jobs add up
+// (merge_partial) to the volume of a single run over all inputs. The grids are written as a .vdb
+// file Houdini opens (formats/vdb-grids.md). OpenVDB stays inside the .cpp files.
+#include <Eigen/Core>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include "pg/core/provenance.h"
+#include "pg/fusion/depth_frame.h"
+#include "pg/fusion/scan.h"
+#include "pg/mesh/mesh.h"
+
+namespace pg::fusion {
+
+struct TsdfOptions {
+  double voxel_size = 0;         // scene units, > 0
+  double truncation = 0;         // half-width of the signed-distance band; 0 = 4 voxels
+  std::uint64_t max_memory = 0;  // bytes the grids may take; 0 = no limit
+  bool color = false;            // keep a colour grid (frames with colour images)
+};
+
+struct ExtractOptions {
+  double min_weight = 0;  // drop vertices whose accumulated weight is below this
+  // Remove disconnected pieces with fewer faces than max(min_component_faces,
+  // min_component_fraction * faces of the largest piece).
+  std::size_t min_component_faces = 0;
+  double min_component_fraction = 0;
+};
+
+class TsdfVolume {
+ public:
+  explicit TsdfVolume(const TsdfOptions& options);
+  ~TsdfVolume();
+  TsdfVolume(TsdfVolume&&) noexcept;
+  TsdfVolume& operator=(TsdfVolume&&) noexcept;
+
+  // Integrates one depth frame: every voxel within the band of a valid pixel's sample along its ray
+  // gets the (truncated) distance along the ray, weighted by the pixel's weight. Throws
+  // Error(out_of_memory) before allocating when the grids would exceed max_memory.
+  void integrate(const DepthFrame& frame);
+  // Integrates a scan along its sensor rays (a ray cast through each voxel near the scan).
+  void integrate(const ScanSurface& scan);
+  // Adds a partial volume (same voxel size and truncation, else UsageError): the weighted mean of
+  // both, as if all their inputs had been integrated into one volume.
+  void merge_partial(const TsdfVolume& partial);
+
+  // The zero level set as triangles, only where all eight voxels of a cell were observed. Adds the
+  // vertex property "confidence" (accumulated weight, trilinear) and colours when the volume has them.
+  Mesh extract_mesh(const ExtractOptions& options = {}) const;
+
+  // Grids "surface" (level set, scene units), "weight", and with colour "Cd" (linear [0, 1] RGB of
+  // the 8-bit inputs) and "Cd_weight", with pg metadata (formats/vdb-grids.md). Atomic.
+  void write_vdb(const std::filesystem::path& path, const Provenance& provenance) const;
+  // Throws InputError(path) for anything not written by write_vdb.
+  static TsdfVolume read_vdb(const std::filesystem::path& path, Provenance* provenance = nullptr);
+
+  double voxel_size() const;
+  double truncation() const;
+  bool has_color() const;
+  std::size_t leaf_count() const;
+  std::uint64_t active_voxel_count() const;
+  std::uint64_t memory_bytes() const;  // the grids' own accounting
+  // Trilinear samples at a world point (for tests and evaluation); nullopt where unobserved.
+  std::optional<float> distance_at(const Eigen::Vector3d& world) const;
+  float weight_at(const Eigen::Vector3d& world) const;
+  // Largest |difference| of distances and relative difference of weights over both volumes' active
+  // voxels (a voxel active in only one counts as infinite).
+  struct Difference {
+    double distance = 0, weight_relative = 0;
+  };
+  Difference compare(const TsdfVolume& other) const;
+
+  // Bytes one 8^3 leaf takes in the grids (used for the memory estimate).
+  static std::uint64_t bytes_per_leaf(bool color);
+
+  struct Grids;
+
+ private:
+  explicit TsdfVolume(std::unique_ptr<Grids> grids);
+  void check_memory(std::size_t new_leaves, const std::string& input) const;
+  std::unique_ptr<Grids> grids_;
+};
+
+}  // namespace pg::fusion
