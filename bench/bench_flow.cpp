@@ -1,5 +1,7 @@
 // Flow accuracy and speed against OpenCV's dense methods, all run here in the same process.
-//   bench_flow [--data DIR] [--only sintel|stereo|speed]...
+//   bench_flow [--data DIR] [--only sintel|stereo|speed]... [--pg KEY=VALUE,...] [--no-opencv]
+// --pg adds "pg custom": the balanced preset with these FlowOptions fields changed (tuning runs);
+// --no-opencv skips the OpenCV methods.
 // Sintel alley_1 clean/final: end-point error over all and non-occluded pixels. Middlebury tsukuba,
 // venus, teddy and aloe as stereo (flow left -> right, truth u = -disparity): bad-pixel rates at 1 and
 // 2 px and the mean disparity error over pixels with known truth; methods leaving holes report their
@@ -72,8 +74,60 @@ std::vector<Method> opencv_methods() {
   };
 }
 
+std::vector<std::pair<std::string, pg::FlowOptions>> custom_settings;
+bool run_opencv = true;
+
+// "alpha=2,median_radius=1" applied to the balanced preset.
+pg::FlowOptions parse_settings(const std::string& text) {
+  pg::FlowOptions o = pg::FlowOptions::preset("balanced");
+  const std::map<std::string, double*> reals = {{"alpha", &o.alpha},
+                                                {"epipolar_alpha", &o.epipolar_alpha},
+                                                {"delta", &o.delta},
+                                                {"gamma", &o.gamma},
+                                                {"zeta", &o.zeta},
+                                                {"epsilon", &o.epsilon},
+                                                {"edge_weight", &o.edge_weight},
+                                                {"clg_rho", &o.clg_rho},
+                                                {"presmooth_sigma", &o.presmooth_sigma},
+                                                {"pyramid_factor", &o.pyramid_factor},
+                                                {"sor_omega", &o.sor_omega},
+                                                {"search_range", &o.search_range},
+                                                {"search_budget", &o.search_budget}};
+  const std::map<std::string, int*> integers = {{"min_side", &o.min_side},
+                                                {"max_levels", &o.max_levels},
+                                                {"finest_level", &o.finest_level},
+                                                {"warps", &o.warps},
+                                                {"fixed_point_iterations", &o.fixed_point_iterations},
+                                                {"sor_iterations", &o.sor_iterations},
+                                                {"median_radius", &o.median_radius}};
+  std::size_t start = 0;
+  while (start < text.size()) {
+    std::size_t end = text.find(',', start);
+    if (end == std::string::npos) end = text.size();
+    const std::string item = text.substr(start, end - start);
+    const std::size_t eq = item.find('=');
+    const std::string key = item.substr(0, eq);
+    const double value = std::stod(item.substr(eq + 1));
+    if (key == "preset")
+      throw std::runtime_error("preset: give it first as preset:NAME");
+    else if (reals.count(key))
+      *reals.at(key) = value;
+    else if (integers.count(key))
+      *integers.at(key) = static_cast<int>(value);
+    else
+      throw std::runtime_error("unknown flow option " + key);
+    start = end + 1;
+  }
+  o.check();
+  return o;
+}
+
 std::vector<Method> our_methods() {
   std::vector<Method> methods;
+  for (const auto& [name, options] : custom_settings)
+    methods.push_back(
+        {"pg " + name, [o = options](const Pair& p) { return pg::compute_flow(p.from, p.to, o); }, true});
+  if (!custom_settings.empty()) return methods;  // tuning: only the custom settings
   for (const char* preset : {"fast", "balanced", "accurate"})
     methods.push_back(
         {std::string("pg ") + preset,
@@ -107,7 +161,8 @@ void bench_sintel(const fs::path& data) {
     const cv::Mat1b invalid = pg::read_image(dir / "gt/invalid/frame_0002.png");
     double best_peer = INFINITY, best_ours = INFINITY;
     std::vector<Method> methods = our_methods();
-    for (Method& m : opencv_methods()) methods.push_back(m);
+    if (run_opencv)
+      for (Method& m : opencv_methods()) methods.push_back(m);
     for (const Method& m : methods) {
       cv::Mat2f flow;
       const double t = seconds([&] { flow = m.run(pair); });
@@ -190,16 +245,26 @@ void bench_stereo(const fs::path& data) {
     cv::minMaxLoc(truth, nullptr, &max_disparity);
     std::vector<Method> methods = our_methods();
     for (const char* preset : {"balanced", "accurate"})
-      methods.push_back({std::string("pg epipolar ") + preset,
-                         [preset](const Pair& p) {
-                           return pg::compute_epipolar_flow(p.from, p.to, rectified_field(p.from.size()),
-                                                            pg::FlowOptions::preset(preset))
-                               .flow;
-                         },
-                         true});
-    for (Method& peer : opencv_methods()) methods.push_back(peer);
-    methods.push_back(
-        {"StereoSGBM", [&](const Pair& p) { return sgbm(p, static_cast<int>(max_disparity) + 4); }});
+      if (custom_settings.empty())
+        methods.push_back({std::string("pg epipolar ") + preset,
+                           [preset](const Pair& p) {
+                             return pg::compute_epipolar_flow(p.from, p.to, rectified_field(p.from.size()),
+                                                              pg::FlowOptions::preset(preset))
+                                 .flow;
+                           },
+                           true});
+    for (const auto& [name, options] : custom_settings)
+      methods.push_back(
+          {"pg epipolar " + name,
+           [o = options](const Pair& p) {
+             return pg::compute_epipolar_flow(p.from, p.to, rectified_field(p.from.size()), o).flow;
+           },
+           true});
+    if (run_opencv) {
+      for (Method& peer : opencv_methods()) methods.push_back(peer);
+      methods.push_back(
+          {"StereoSGBM", [&](const Pair& p) { return sgbm(p, static_cast<int>(max_disparity) + 4); }});
+    }
     double best_peer = INFINITY, best_ours = INFINITY, best_epipolar = INFINITY;
     for (const Method& method : methods) {
       cv::Mat2f flow;
@@ -244,8 +309,15 @@ int main(int argc, char** argv) {
       data = argv[++i];
     else if (arg == "--only" && i + 1 < argc)
       only.insert(argv[++i]);
+    else if (arg == "--pg" && i + 1 < argc) {
+      const std::string text = argv[++i];
+      custom_settings.emplace_back("custom " + std::to_string(custom_settings.size() + 1) + " [" + text + "]",
+                                   parse_settings(text));
+    } else if (arg == "--no-opencv")
+      run_opencv = false;
     else {
-      std::cerr << "usage: bench_flow [--data DIR] [--only sintel|stereo|speed]...\n";
+      std::cerr << "usage: bench_flow [--data DIR] [--only sintel|stereo|speed]... [--pg KEY=VALUE,...] "
+                   "[--no-opencv]\n";
       return 2;
     }
   }

@@ -88,7 +88,7 @@ cv::Mat read_view(const fs::path& path, const pg::Camera& camera) {
 pg::DepthPairOptions pair_options(const Options& o) {
   pg::DepthPairOptions options;
   options.flow = pg::FlowOptions::preset(o.preset);
-  if (o.alpha > 0) options.flow.alpha = o.alpha;
+  if (o.alpha > 0) (o.mode == "epipolar" ? options.flow.epipolar_alpha : options.flow.alpha) = o.alpha;
   if (o.pyramid_factor > 0) options.flow.pyramid_factor = o.pyramid_factor;
   options.flow.clg_rho = o.clg_rho;
   if (o.mode != "epipolar" && o.mode != "free") throw pg::UsageError("--mode must be epipolar or free");
@@ -119,7 +119,7 @@ int main(int argc, char** argv) {
   app.add_option("--masks", o.masks, "folder of masks <camera id>.png, nonzero = ignore");
   app.add_option("--mode", o.mode, "flow mode: epipolar (static scenes, default) or free 2-D flow");
   app.add_option("--preset", o.preset, "flow settings: fast, balanced (default) or accurate");
-  app.add_option("--alpha", o.alpha, "flow smoothness weight (default from the preset: 1)");
+  app.add_option("--alpha", o.alpha, "flow smoothness weight (default from the preset: 3 epipolar, 8 free)");
   app.add_option("--pyramid-factor", o.pyramid_factor, "size ratio between pyramid levels, in [0.5, 1)");
   app.add_option("--clg", o.clg_rho, "combined local-global data term with this integration sigma (pixels)");
   app.add_option("--scale", o.scale, "resolution of the computation relative to the images, in (0, 1]");

@@ -8,6 +8,7 @@
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/flow/level_solver.h"
+#include "pg/flow/line_search.h"
 #include "pg/image/pyramid.h"
 
 namespace pg {
@@ -138,8 +139,10 @@ cv::Mat2f compute_flow(const cv::Mat& from, const cv::Mat& to, const FlowOptions
 }
 
 EpipolarFlow compute_epipolar_flow(const cv::Mat& from, const cv::Mat& to, const EpipolarField& field,
-                                   const FlowOptions& options, const cv::Mat1f& initial_along) {
-  options.check();
+                                   const FlowOptions& free_options, const cv::Mat1f& initial_along) {
+  free_options.check();
+  FlowOptions options = free_options;
+  options.alpha = free_options.epipolar_alpha;
   check_pair(from, to);
   if (field.empty() || field.base.size() != from.size() || field.direction.size() != from.size())
     throw UsageError("flow: the epipolar field's size differs from the images");
@@ -148,7 +151,22 @@ EpipolarFlow compute_epipolar_flow(const cv::Mat& from, const cv::Mat& to, const
   const PyramidPair pair = build_pyramids(from, to, options);
   const cv::Size full = pair.sizes.front();
   cv::Mat1f s = initial_along.clone();
-  if (s.empty()) {
+  int start = first_level(pair);
+  const int finest = last_level(pair, options);
+  if (s.empty() && options.search_range > 0) {
+    // The discrete search at the finest level it can afford; coarser levels are skipped.
+    const auto radius_at = [&](int level) {
+      return std::max(1, static_cast<int>(std::ceil(options.search_range * pair.sizes[level].width)));
+    };
+    start = finest;
+    while (start < first_level(pair) &&
+           flow_detail::line_search_cost(pair.sizes[start], radius_at(start)) > options.search_budget)
+      ++start;
+    const cv::Size size = pair.sizes[start];
+    const EpipolarField level_field = start == 0 ? field : resize_epipolar_field(field, size);
+    s = flow_detail::search_along_lines(pair.from[start], pair.to[start], level_field.base,
+                                        level_field.direction, radius_at(start));
+  } else if (s.empty()) {
     // Start from the smallest flow on each line (its foot from the pixel itself), as the free flow
     // starts from zero: converging cameras put the point at infinity far from the pixel.
     s = cv::Mat1f(full);
@@ -156,7 +174,7 @@ EpipolarFlow compute_epipolar_flow(const cv::Mat& from, const cv::Mat& to, const
       for (int x = 0; x < full.width; ++x) s(y, x) = -field.base(y, x).dot(field.direction(y, x));
   }
   cv::patchNaNs(s, 0.0);
-  for (int level = first_level(pair); level >= last_level(pair, options); --level) {
+  for (int level = start; level >= finest; --level) {
     const cv::Size size = pair.sizes[level];
     s = rescale(s, size, static_cast<double>(size.width) / s.cols);
     const EpipolarField level_field = level == 0 ? field : resize_epipolar_field(field, size);

@@ -12,7 +12,7 @@
 // Each pyramid level runs `warps` outer warps; each warp linearises the data term around the current
 // flow and runs `fixed_point_iterations` lagged-nonlinearity iterations (robust weights frozen), each
 // solved by `sor_iterations` red-black SOR sweeps (2x2 block per pixel, parallel over rows with TBB;
-// results do not depend on the thread count).
+// results do not depend on the thread count); a median filter of the flow follows each warp.
 //
 // Combined local-global (Bruhn, Weickert & Schnorr, IJCV 2005): with clg_rho > 0 the per-pixel motion
 // tensors of both constancy terms are integrated with a Gaussian of that scale before the robust
@@ -21,7 +21,8 @@
 // Epipolar mode (Slesareva, Bruhn & Weickert, DAGM 2005): for a static scene seen by two calibrated
 // cameras, the flow of pixel x is constrained to its epipolar line, w(x) = base(x) + s(x) * dir(x),
 // and the single unknown s (pixels along the line; for a rectified pair, the disparity) is solved
-// with the same energy, the smoothness acting on s. The line field comes from the two cameras
+// with the same energy (smoothness weight epipolar_alpha), the smoothness acting on s. Optionally s
+// starts from a discrete semi-global search along the lines (search_range) instead of coarse to fine. The line field comes from the two cameras
 // (epipolar_field) or from the caller (spherical images, curved lines linearised per pixel).
 //
 // Images: any depth (8-bit, 16-bit, float), 1, 3 or 4 channels (colour used jointly, alpha ignored).
@@ -36,13 +37,17 @@
 namespace pg {
 
 struct FlowOptions {
-  // Energy (defaults as DeepFlow's variational stage, which the normalisation makes scale-free).
-  double alpha = 1.0;            // smoothness weight
+  // Energy. The data terms are normalised (scale-free in intensity), so alpha is relative to them;
+  // defaults tuned on MPI-Sintel alley_1 (see bench/bench_flow.cpp).
+  double alpha = 8.0;  // smoothness weight (free 2-D flow)
+  // Smoothness weight of the epipolar mode: one unknown, and real static scenes (Strecha, Middlebury)
+  // favour less smoothing than Sintel's rendered motion.
+  double epipolar_alpha = 3.0;
   double delta = 0.5;            // brightness constancy weight
   double gamma = 5.0;            // gradient constancy weight
-  double zeta = 0.1;             // data-term normalisation, intensity units ([0, 1] scale); 0 = off
+  double zeta = 0.0004;          // data-term normalisation, intensity units ([0, 1] scale); 0 = off
   double epsilon = 0.001;        // Charbonnier epsilon, data and smoothness
-  double edge_weight = 0.0;      // > 0: smoothness times exp(-edge_weight * |grad I1|) ([0, 1] scale)
+  double edge_weight = 5.0;      // > 0: smoothness times exp(-edge_weight * |grad I1|) ([0, 1] scale)
   double clg_rho = 0.0;          // > 0: combined local-global data term, integration sigma (pixels)
   double presmooth_sigma = 0.6;  // Gaussian pre-smoothing of both images (pixels, finest level)
   bool hdr_log = false;          // float HDR input: log(1 + x) / log(2) first
@@ -60,6 +65,16 @@ struct FlowOptions {
   int fixed_point_iterations = 5;  // lagged-nonlinearity iterations per warp
   int sor_iterations = 10;         // red-black SOR sweeps per fixed-point iteration
   double sor_omega = 1.6;          // over-relaxation factor in (0, 2)
+  // Median filter of the flow (or of s) after each warp, radius 0 (off), 1 (3x3) or 2 (5x5): removes
+  // the outliers of the linearisation (Sun, Roth & Black, CVPR 2010, "Secrets of optical flow").
+  int median_radius = 2;
+  // Epipolar mode without initial_along: > 0 starts s from a discrete search along each line (census
+  // costs, semi-global aggregation over 8 paths, winner take all) within +- search_range * image width
+  // of the line's point nearest the pixel (s >= 0), at the finest pyramid level where the search
+  // stays under search_budget cost entries; the variational solver refines from that level on. Finds
+  // large displacements on small structures that coarse to fine misses. 0 = coarse to fine only.
+  double search_range = 0.0;
+  double search_budget = 4e7;
 
   // Throws UsageError naming the first invalid field.
   void check() const;

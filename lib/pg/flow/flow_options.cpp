@@ -9,6 +9,7 @@ void FlowOptions::check() const {
     if (!ok) throw UsageError(str("flow option ", field, " = ", value, ": ", rule));
   };
   require(alpha > 0, "alpha", alpha, "must be positive");
+  require(epipolar_alpha > 0, "epipolar_alpha", epipolar_alpha, "must be positive");
   require(delta >= 0, "delta", delta, "must not be negative");
   require(gamma >= 0, "gamma", gamma, "must not be negative");
   require(delta + gamma > 0, "delta + gamma", delta + gamma, "one data term must be on");
@@ -28,6 +29,10 @@ void FlowOptions::check() const {
           fixed_point_iterations, "must be in [1, 100]");
   require(sor_iterations >= 1 && sor_iterations <= 1000, "sor_iterations", sor_iterations,
           "must be in [1, 1000]");
+  require(median_radius >= 0 && median_radius <= 2, "median_radius", median_radius, "must be 0, 1 or 2");
+  require(search_range >= 0 && search_range <= 1, "search_range", search_range, "must be in [0, 1]");
+  require(search_budget >= 1e4 && search_budget <= 1e9, "search_budget", search_budget,
+          "must be in [1e4, 1e9]");
   require(sor_omega > 0 && sor_omega < 2, "sor_omega", sor_omega, "must be in (0, 2)");
 }
 

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/imgproc.hpp>
+
 #include "pg/image/pyramid.h"
 
 namespace pg::flow_detail {
@@ -207,6 +209,13 @@ inline float weighted_neighbours(const cv::Mat1f& f, const RowWeights& w, int y,
 
 }  // namespace
 
+void LevelSolver::median_filter(cv::Mat1f& field) const {
+  if (options_.median_radius == 0) return;
+  cv::Mat1f filtered;
+  cv::medianBlur(field, filtered, 2 * options_.median_radius + 1);
+  field = filtered;
+}
+
 RowWeights LevelSolver::row_weights(int y) const {
   return {weight_right_[y], weight_down_[y], y > 0 ? weight_down_[y - 1] : zero_row_.data()};
 }
@@ -272,6 +281,8 @@ void LevelSolver::solve(cv::Mat1f& u, cv::Mat1f& v) {
     }
     u += du_;
     v += dv_;
+    median_filter(u);
+    median_filter(v);
   }
 }
 
@@ -334,6 +345,7 @@ void LevelSolver::solve_along(cv::Mat1f& s, const cv::Mat2f& base, const cv::Mat
       }
     }
     s += ds;
+    median_filter(s);
   }
 }
 

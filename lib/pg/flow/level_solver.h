@@ -50,6 +50,8 @@ class LevelSolver {
   void compute_smoothness(const cv::Mat1f& a, const cv::Mat1f& da, const cv::Mat1f& b, const cv::Mat1f& db);
 
   RowWeights row_weights(int y) const;
+  // options_.median_radius median of a flow component or s, in place (no-op at radius 0).
+  void median_filter(cv::Mat1f& field) const;
 
   const LevelImages& images_;
   const FlowOptions& options_;
