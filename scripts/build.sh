@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Configures and builds pg (Release, warnings on, ccache when present, -j from the core count).
-# Usage: scripts/build.sh [--sanitize] [extra cmake args...]
+# Usage: scripts/build.sh [--sanitize] [--target T...]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=build
@@ -13,6 +13,6 @@ fi
 generator=()
 if command -v ninja >/dev/null; then generator=(-G Ninja); fi
 if [ ! -f "$build_dir/CMakeCache.txt" ]; then
-  cmake -S . -B "$build_dir" "${generator[@]}" "${args[@]}" "$@"
+  cmake -S . -B "$build_dir" "${generator[@]}" "${args[@]}"
 fi
-cmake --build "$build_dir" -j "$(nproc)"
+cmake --build "$build_dir" -j "$(nproc)" "$@"
