@@ -10,6 +10,7 @@ packages=(
   libopenexr-dev libimath-dev libcli11-dev nlohmann-json3-dev libtbb-dev
   ocl-icd-opencl-dev opencl-clhpp-headers pocl-opencl-icd clinfo
   libgtest-dev libbenchmark-dev
+  clang-14 libclang-rt-14-dev
 )
 
 missing=()
