@@ -1,7 +1,10 @@
 #include "common/cli.h"
 
+#include <sys/resource.h>
 #include <unistd.h>
+
 #include <csignal>
+#include <fstream>
 #include <iostream>
 #include <new>
 
@@ -13,6 +16,7 @@
 #include "pg/core/progress.h"
 #include "pg/core/provenance.h"
 #include "pg/core/run_report.h"
+#include "pg/gpu/device.h"
 
 namespace fs = std::filesystem;
 
@@ -33,6 +37,44 @@ std::string quote_arg(const std::string& a) {
   return q + "'";
 }
 
+std::uint64_t budget_bytes = 0;
+
+// Builds with AddressSanitizer reserve terabytes of address space, so no address-space limit there.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool address_space_limit_possible = false;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+constexpr bool address_space_limit_possible = false;
+#else
+constexpr bool address_space_limit_possible = true;
+#endif
+#else
+constexpr bool address_space_limit_possible = true;
+#endif
+
+std::uint64_t address_space_in_use() {
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t pages = 0;
+  statm >> pages;
+  return pages * std::uint64_t(::sysconf(_SC_PAGESIZE));
+}
+
+// The backstop behind the stages' own estimates (require_memory): an address-space limit of what is
+// mapped now plus the budget, so an allocation past it fails with std::bad_alloc (exit code 5)
+// instead of the kernel killing the job. Each worker thread may map a stack and a malloc arena
+// (8 + 64 MiB) without using them; that reservation is added so it does not count as use.
+void limit_address_space(std::uint64_t budget, int threads) {
+  if (!address_space_limit_possible || budget == 0) return;
+  const std::uint64_t per_thread_reserve = std::uint64_t{72} << 20;
+  const int workers = threads > 0 ? threads : int(::sysconf(_SC_NPROCESSORS_ONLN));
+  const rlim_t limit = address_space_in_use() + budget + per_thread_reserve * std::uint64_t(workers + 1);
+  rlimit current{};
+  if (::getrlimit(RLIMIT_AS, &current) != 0) return;
+  if (current.rlim_max != RLIM_INFINITY && limit > current.rlim_max) return;
+  current.rlim_cur = limit;
+  ::setrlimit(RLIMIT_AS, &current);
+}
+
 bool same_file(const fs::path& a, const fs::path& b) {
   std::error_code ec;
   if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
@@ -46,6 +88,35 @@ std::string exit_code_help() {
          "failed, 5 out of memory, 6 output not writable or would overwrite an input, 130 interrupted.";
 }
 
+std::uint64_t parse_memory_size(const std::string& text) {
+  const std::string problem = str("--max-memory '", text, "' is not a size such as 8G, 512M or 1000000");
+  std::size_t used = 0;
+  double value = 0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::logic_error&) {
+    throw UsageError(problem);
+  }
+  const std::string unit = text.substr(used);
+  const double scale = unit.empty()  ? 1.0
+                       : unit == "K" ? double(1 << 10)
+                       : unit == "M" ? double(1 << 20)
+                       : unit == "G" ? double(1 << 30)
+                                     : -1.0;
+  if (scale < 0 || !(value > 0) || value * scale > 1e18) throw UsageError(problem);
+  return std::uint64_t(value * scale);
+}
+
+std::uint64_t memory_budget() {
+  return budget_bytes;
+}
+
+void require_memory(std::uint64_t bytes, const std::string& what) {
+  if (budget_bytes == 0 || bytes <= budget_bytes) return;
+  throw Error(ExitCode::out_of_memory,
+              str(what, " needs ", bytes >> 20, " MiB, more than --max-memory ", budget_bytes >> 20, " MiB"));
+}
+
 Frame::Frame(ToolInfo info) : info_(std::move(info)), app_(info_.summary, info_.name) {
   app_.set_version_flag("--version", std::string(info_.name) + " " + build_info::version);
   app_.add_option("--log-level", log_level_, "error, warn, info, debug or trace")->capture_default_str();
@@ -54,11 +125,18 @@ Frame::Frame(ToolInfo info) : info_(std::move(info)), app_(info_.summary, info_.
       ->check(CLI::NonNegativeNumber);
   app_.add_option("--seed", seed_, "seed for every random choice; same inputs and seed, same outputs")
       ->capture_default_str();
+  app_.add_option("--max-memory", max_memory_text_,
+                  "memory budget such as 8G or 512M: fail early with exit code 5 rather than exceed it");
   app_.add_option("--report", report_path_, "write the run report (JSON: metrics, timings, memory) here");
   app_.add_option("--progress", progress_mode_,
                   "progress lines on stderr: auto (redraw on a terminal, lines otherwise), lines, off")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "lines", "off"}));
+  app_.add_option("--device", device_,
+                  "where accelerated stages run: cpu, opencl, cuda or auto (a GPU when one is usable); "
+                  "falls back to the CPU with a notice")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"cpu", "opencl", "cuda", "auto"}));
   app_.footer("Example:\n" + info_.example + "\n\n" + exit_code_help());
   app_.fallthrough();  // the common flags also work after a subcommand: `pg-x run --threads 2`
 }
@@ -130,10 +208,17 @@ int Frame::run(int argc, char** argv, const std::function<void()>& body) {
   try {
     log::set_level(log::parse_level(log_level_));
     set_thread_count(threads_);
+    if (!max_memory_text_.empty()) {
+      max_memory_ = parse_memory_size(max_memory_text_);
+      budget_bytes = max_memory_;
+      limit_address_space(max_memory_, threads_);
+    }
     Progress::set_enabled(progress_mode_ != "off");
     Progress::set_force_terminal(progress_mode_ == "lines" ? 0 : -1);
     if (!report_path_.empty()) output(report_path_);
+    gpu::set_requested_device(gpu::parse_device_kind(device_));
     body();
+    if (gpu::device_resolved()) RunReport::global().set_metric("device", gpu::describe_active_device());
   } catch (const Error& e) {
     code = e.code();
     message = e.what();
@@ -141,8 +226,11 @@ int Frame::run(int argc, char** argv, const std::function<void()>& body) {
     code = ExitCode::out_of_memory;
     message = "out of memory";
   } catch (const std::exception& e) {
-    code = ExitCode::internal;
-    message = std::string("internal error: ") + e.what();
+    // OpenCV reports a failed allocation as cv::Exception (-4: Insufficient memory), not bad_alloc.
+    const bool opencv_out_of_memory = std::string(e.what()).find("Insufficient memory") != std::string::npos;
+    code = opencv_out_of_memory ? ExitCode::out_of_memory : ExitCode::internal;
+    message = opencv_out_of_memory ? std::string("out of memory: ") + e.what()
+                                   : std::string("internal error: ") + e.what();
   }
   if (code != ExitCode::ok) log::error(message);
 

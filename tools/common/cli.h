@@ -30,6 +30,8 @@ class Frame {
   CLI::App& app() { return app_; }
   std::uint64_t seed() const { return seed_; }
   int threads() const { return threads_; }
+  // The --max-memory budget in bytes; 0 = no limit. Also readable anywhere through memory_budget().
+  std::uint64_t max_memory() const { return max_memory_; }
 
   // Declares an input file: it must exist (InputError otherwise); recorded in the report/provenance.
   void input(const std::filesystem::path& path);
@@ -50,12 +52,25 @@ class Frame {
   std::string log_level_ = "info";
   std::string progress_mode_ = "auto";
   std::string report_path_;
+  std::string device_ = "auto";
   std::uint64_t seed_ = 1;
   int threads_ = 0;
+  std::string max_memory_text_;
+  std::uint64_t max_memory_ = 0;
   std::vector<std::filesystem::path> inputs_;
   std::vector<std::filesystem::path> input_dirs_;
 };
 
 std::string exit_code_help();
+
+// "8G", "512M", "64K" or a byte count -> bytes; UsageError naming --max-memory otherwise.
+std::uint64_t parse_memory_size(const std::string& text);
+
+// The process's --max-memory budget in bytes (0 = no limit), set by Frame::run.
+std::uint64_t memory_budget();
+
+// Fails early with Error(out_of_memory) (exit code 5, which a farm retries on a bigger node) when
+// `bytes`, a stage's estimate of what it is about to allocate for `what`, exceeds the budget.
+void require_memory(std::uint64_t bytes, const std::string& what);
 
 }  // namespace pg::cli

@@ -44,12 +44,19 @@ nlohmann::json to_json(const Provenance& p) {
           {"inputs", p.inputs}};
 }
 
+// Provenance is informational: a field of the wrong type (or a provenance that is no object) is
+// skipped rather than failing the file, and never escapes as a JSON exception.
 Provenance provenance_from_json(const nlohmann::json& j) {
   Provenance p;
-  p.tool = j.value("tool", "");
-  p.version = j.value("version", "");
-  p.command_line = j.value("command_line", "");
-  p.created_utc = j.value("created_utc", "");
+  if (!j.is_object()) return p;
+  const auto text = [&](const char* key) {
+    const auto it = j.find(key);
+    return it != j.end() && it->is_string() ? it->get<std::string>() : std::string();
+  };
+  p.tool = text("tool");
+  p.version = text("version");
+  p.command_line = text("command_line");
+  p.created_utc = text("created_utc");
   if (j.contains("inputs") && j["inputs"].is_array())
     for (const auto& i : j["inputs"])
       if (i.is_string()) p.inputs.push_back(i.get<std::string>());

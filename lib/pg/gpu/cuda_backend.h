@@ -1,0 +1,16 @@
+#pragma once
+// Internal: the optional CUDA path (cuda/flow_increments.cu, built with PG_WITH_CUDA). Without it, or
+// without a usable GPU at run time, cuda_devices() is empty and gives the reason.
+#include <string>
+#include <vector>
+
+#include "pg/gpu/device.h"
+#include "pg/gpu/flow_increments.h"
+
+namespace pg::gpu::detail {
+
+std::vector<DeviceInfo> cuda_devices(std::string& reason);
+// Runs the flow increments on CUDA device 0; only called when cuda_devices() is non-empty.
+void cuda_flow_increments(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv);
+
+}  // namespace pg::gpu::detail

@@ -1,0 +1,137 @@
+#include "pg/gpu/flow_increments.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "pg/core/error.h"
+#include "pg/gpu/cuda_backend.h"
+
+namespace pg::gpu {
+namespace {
+
+template <class RowBody>
+void for_rows(int rows, const RowBody& body) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, rows, 2), [&](const tbb::blocked_range<int>& range) {
+    for (int y = range.begin(); y != range.end(); ++y) body(y);
+  });
+}
+
+// Charbonnier derivative psi'(s^2) = 1 / (2 sqrt(s^2 + eps^2)), times a weight.
+inline float robust_weight(float weight, float squared, float epsilon_squared) {
+  return weight * 0.5f / std::sqrt(std::max(squared, 0.f) + epsilon_squared);
+}
+
+inline float quadratic(const std::array<cv::Mat1f, 6>& j, int y, int x, float du, float dv) {
+  return j[0](y, x) * du * du + 2 * j[1](y, x) * du * dv + j[2](y, x) * dv * dv + 2 * j[3](y, x) * du +
+         2 * j[4](y, x) * dv + j[5](y, x);
+}
+
+struct Weights {
+  const cv::Mat1f& right;
+  const cv::Mat1f& down;
+  float left(int y, int x) const { return x > 0 ? right(y, x - 1) : 0.f; }
+  float up(int y, int x) const { return y > 0 ? down(y - 1, x) : 0.f; }
+  float total(int y, int x) const { return left(y, x) + right(y, x) + down(y, x) + up(y, x); }
+  float neighbours(const cv::Mat1f& f, int y, int x) const {
+    const int rows = f.rows, cols = f.cols;
+    return left(y, x) * f(y, x > 0 ? x - 1 : x) + right(y, x) * f(y, x + 1 < cols ? x + 1 : x) +
+           up(y, x) * f(y > 0 ? y - 1 : y, x) + down(y, x) * f(y + 1 < rows ? y + 1 : y, x);
+  }
+};
+
+void check_input(const FlowIncrementInput& in) {
+  const cv::Size size = in.size();
+  bool ok = !in.u.empty() && in.v.size() == size && in.smoothness.size() == size;
+  for (const auto* set : {&in.brightness, &in.gradient})
+    for (const cv::Mat1f& m : *set) ok = ok && m.size() == size && m.isContinuous();
+  if (!ok || !in.u.isContinuous() || !in.v.isContinuous() || !in.smoothness.isContinuous())
+    throw UsageError("flow increments: tensors, smoothness and flow must be continuous and of one size");
+}
+
+}  // namespace
+
+void flow_increments_cpu(const FlowIncrementInput& in, cv::Mat1f& du, cv::Mat1f& dv) {
+  check_input(in);
+  const int rows = in.u.rows, cols = in.u.cols;
+  const FlowIncrementOptions& o = in.options;
+  const float epsilon_squared = o.epsilon * o.epsilon, omega = o.omega;
+  const float damping = 1e-6f;  // keeps the diagonal positive where data and smoothness both vanish
+  du.create(rows, cols);
+  dv.create(rows, cols);
+  du.setTo(0);
+  dv.setTo(0);
+  cv::Mat1f psi(rows, cols), right(rows, cols), down(rows, cols);
+  cv::Mat1f a11_inv(rows, cols), a22_inv(rows, cols), a12(rows, cols), rhs1(rows, cols), rhs2(rows, cols);
+  const Weights w{right, down};
+  for (int iteration = 0; iteration < o.fixed_point_iterations; ++iteration) {
+    // Robust smoothness weight of u + du and v + dv, from forward differences.
+    for_rows(rows, [&](int y) {
+      const int yn = std::min(y + 1, rows - 1);
+      for (int x = 0; x < cols; ++x) {
+        const int xn = std::min(x + 1, cols - 1);
+        const float a0 = in.u(y, x) + du(y, x);
+        const float ax = in.u(y, xn) + du(y, xn) - a0, ay = in.u(yn, x) + du(yn, x) - a0;
+        const float b0 = in.v(y, x) + dv(y, x);
+        const float bx = in.v(y, xn) + dv(y, xn) - b0, by = in.v(yn, x) + dv(yn, x) - b0;
+        const float squared = ax * ax + ay * ay + (bx * bx + by * by);
+        psi(y, x) = robust_weight(in.smoothness(y, x), squared, epsilon_squared);
+      }
+    });
+    // Edge weights: the mean of both pixels' weights; zero across the border.
+    for_rows(rows, [&](int y) {
+      for (int x = 0; x < cols; ++x) {
+        right(y, x) = x + 1 < cols ? 0.5f * (psi(y, x) + psi(y, x + 1)) : 0.f;
+        down(y, x) = y + 1 < rows ? 0.5f * (psi(y, x) + psi(y + 1, x)) : 0.f;
+      }
+    });
+    // The linear system of this iteration, robust weights frozen.
+    for_rows(rows, [&](int y) {
+      for (int x = 0; x < cols; ++x) {
+        const float psi_b =
+            robust_weight(o.delta, quadratic(in.brightness, y, x, du(y, x), dv(y, x)), epsilon_squared);
+        const float psi_g =
+            robust_weight(o.gamma, quadratic(in.gradient, y, x, du(y, x), dv(y, x)), epsilon_squared);
+        const float total = w.total(y, x);
+        a11_inv(y, x) =
+            1.f / (psi_b * in.brightness[0](y, x) + psi_g * in.gradient[0](y, x) + total + damping);
+        a22_inv(y, x) =
+            1.f / (psi_b * in.brightness[2](y, x) + psi_g * in.gradient[2](y, x) + total + damping);
+        a12(y, x) = psi_b * in.brightness[1](y, x) + psi_g * in.gradient[1](y, x);
+        rhs1(y, x) = w.neighbours(in.u, y, x) - total * in.u(y, x) -
+                     (psi_b * in.brightness[3](y, x) + psi_g * in.gradient[3](y, x));
+        rhs2(y, x) = w.neighbours(in.v, y, x) - total * in.v(y, x) -
+                     (psi_b * in.brightness[4](y, x) + psi_g * in.gradient[4](y, x));
+      }
+    });
+    for (int sweep = 0; sweep < o.sor_iterations; ++sweep)
+      for (int colour = 0; colour < 2; ++colour)
+        for_rows(rows, [&](int y) {
+          for (int x = (y + colour) & 1; x < cols; x += 2) {
+            const float du_new =
+                (1 - omega) * du(y, x) +
+                omega * (rhs1(y, x) + w.neighbours(du, y, x) - a12(y, x) * dv(y, x)) * a11_inv(y, x);
+            du(y, x) = du_new;
+            dv(y, x) = (1 - omega) * dv(y, x) +
+                       omega * (rhs2(y, x) + w.neighbours(dv, y, x) - a12(y, x) * du_new) * a22_inv(y, x);
+          }
+        });
+  }
+}
+
+void flow_increments(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv, DeviceKind device) {
+  if (device == DeviceKind::automatic) device = active_device();
+  check_input(input);
+  switch (device) {
+    case DeviceKind::cuda:
+      return detail::cuda_flow_increments(input, du, dv);
+    case DeviceKind::opencl:
+      return flow_increments_opencl(input, du, dv);
+    default:
+      return flow_increments_cpu(input, du, dv);
+  }
+}
+
+}  // namespace pg::gpu

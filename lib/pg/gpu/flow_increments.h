@@ -1,0 +1,44 @@
+#pragma once
+// The inner iterations of the variational flow solver (pg/flow/level_solver.cpp) for one warp: the
+// lagged-nonlinearity fixed-point iterations, each rebuilding the robust smoothness and data weights
+// and solving the linearised 2x2-per-pixel system with red-black SOR sweeps. This is the solver's hot
+// loop; the warp and the motion tensors stay on the CPU.
+//
+// flow_increments_cpu is the reference (the same arithmetic as LevelSolver::solve, in float). The
+// OpenCL and CUDA versions run the same float operations in the same order (no contraction into FMA,
+// correctly rounded division and square root), so they agree with it to rounding: the tests accept
+// 1e-4 px in (du, dv), well below the 0.01 px flow EPE tolerance.
+#include <array>
+#include <opencv2/core.hpp>
+
+#include "pg/gpu/device.h"
+
+namespace pg::gpu {
+
+struct FlowIncrementOptions {
+  float epsilon = 0.001f;  // Charbonnier epsilon
+  float delta = 0.5f;      // brightness constancy weight
+  float gamma = 5.0f;      // gradient constancy weight
+  float omega = 1.6f;      // SOR over-relaxation
+  int fixed_point_iterations = 5;
+  int sor_iterations = 10;
+};
+
+struct FlowIncrementInput {
+  // Motion tensors of brightness and gradient constancy, entries 11 12 22 13 23 33 of w^T J w for
+  // w = (du, dv, 1), each rows x cols (LevelSolver's b.. and g..).
+  std::array<cv::Mat1f, 6> brightness, gradient;
+  cv::Mat1f smoothness;  // alpha * g(x) per pixel
+  cv::Mat1f u, v;        // the flow the tensors were computed at
+  FlowIncrementOptions options;
+  cv::Size size() const { return u.size(); }
+};
+
+// The increments (du, dv) of one warp, starting from zero. du and dv are (re)allocated to the size.
+void flow_increments_cpu(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv);
+void flow_increments_opencl(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv);
+// On `device` (cpu, opencl or cuda; automatic = active_device()).
+void flow_increments(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv,
+                     DeviceKind device = DeviceKind::automatic);
+
+}  // namespace pg::gpu

@@ -1,0 +1,94 @@
+#include "pg/gpu/flow_increments.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "pg/gpu/test_support.h"
+
+namespace pg::gpu {
+namespace {
+
+// A textured image moved by a constant (du, dv): linearised brightness constancy
+// ix du + iy dv + it = 0 with it = -(ix du + iy dv) has that motion as its exact solution, and a
+// constant flow costs no smoothness, so the increments converge to it.
+FlowIncrementInput translation_problem(int cols, int rows, float du, float dv) {
+  FlowIncrementInput in;
+  for (auto* set : {&in.brightness, &in.gradient})
+    for (cv::Mat1f& m : *set) m = cv::Mat1f::zeros(rows, cols);
+  for (int y = 0; y < rows; ++y)
+    for (int x = 0; x < cols; ++x) {
+      const float ix = std::cos(0.21f * x + 0.05f * y) + 0.4f * std::sin(0.13f * y);
+      const float iy = std::sin(0.17f * y - 0.07f * x) + 0.3f * std::cos(0.11f * x);
+      const float it = -(ix * du + iy * dv);
+      const float j[6] = {ix * ix, ix * iy, iy * iy, ix * it, iy * it, it * it};
+      for (int k = 0; k < 6; ++k) in.brightness[k](y, x) = j[k];
+      // A gradient-constancy tensor with the same solution, from a second texture.
+      const float gx = std::sin(0.3f * x) * std::cos(0.2f * y), gy = std::cos(0.25f * y + 0.1f * x);
+      const float gt = -(gx * du + gy * dv);
+      const float g[6] = {gx * gx, gx * gy, gy * gy, gx * gt, gy * gt, gt * gt};
+      for (int k = 0; k < 6; ++k) in.gradient[k](y, x) = 0.1f * g[k];
+    }
+  in.smoothness = cv::Mat1f(rows, cols, 0.02f);
+  in.u = cv::Mat1f::zeros(rows, cols);
+  in.v = cv::Mat1f::zeros(rows, cols);
+  return in;
+}
+
+double largest_difference(const cv::Mat1f& a, const cv::Mat1f& b) {
+  return cv::norm(a, b, cv::NORM_INF);
+}
+
+TEST(FlowIncrements, CpuReferenceConvergesToTheTranslation) {
+  FlowIncrementInput in = translation_problem(64, 48, 0.3f, -0.2f);
+  in.options.fixed_point_iterations = 10;
+  in.options.sor_iterations = 30;
+  cv::Mat1f du, dv;
+  flow_increments_cpu(in, du, dv);
+  const cv::Rect inner(4, 4, 56, 40);
+  EXPECT_LT(cv::norm(du(inner) - 0.3f, cv::NORM_INF), 0.01);
+  EXPECT_LT(cv::norm(dv(inner) + 0.2f, cv::NORM_INF), 0.01);
+}
+
+TEST(FlowIncrements, OpenClEqualsCpu) {
+  PG_REQUIRE_OPENCL();
+  // Odd sizes exercise the borders and the red-black split of an odd row length.
+  for (const cv::Size size : {cv::Size(67, 45), cv::Size(128, 96)}) {
+    FlowIncrementInput in = translation_problem(size.width, size.height, 0.7f, 0.4f);
+    // A non-zero starting flow with structure, so the smoothness weights vary.
+    for (int y = 0; y < size.height; ++y)
+      for (int x = 0; x < size.width; ++x) {
+        in.u(y, x) = 0.3f * std::sin(0.1f * x) + (x > size.width / 2 ? 0.5f : 0.f);
+        in.v(y, x) = 0.2f * std::cos(0.15f * y);
+      }
+    cv::Mat1f du_cpu, dv_cpu, du_cl, dv_cl;
+    flow_increments_cpu(in, du_cpu, dv_cpu);
+    flow_increments(in, du_cl, dv_cl, DeviceKind::opencl);
+    EXPECT_LT(largest_difference(du_cpu, du_cl), 1e-4) << size;
+    EXPECT_LT(largest_difference(dv_cpu, dv_cl), 1e-4) << size;
+    EXPECT_GT(cv::norm(du_cpu, cv::NORM_INF), 0.1);  // the comparison is not between zeros
+  }
+}
+
+TEST(FlowIncrements, CudaEqualsCpu) {
+  const std::string reason = cuda_unavailable_reason();
+  if (!reason.empty()) GTEST_SKIP() << "no CUDA device (" << reason << ")";
+  FlowIncrementInput in = translation_problem(67, 45, 0.7f, 0.4f);
+  cv::Mat1f du_cpu, dv_cpu, du_cuda, dv_cuda;
+  flow_increments_cpu(in, du_cpu, dv_cpu);
+  flow_increments(in, du_cuda, dv_cuda, DeviceKind::cuda);
+  EXPECT_LT(largest_difference(du_cpu, du_cuda), 1e-4);
+  EXPECT_LT(largest_difference(dv_cpu, dv_cuda), 1e-4);
+}
+
+TEST(FlowIncrements, CpuDeviceRunsTheReference) {
+  const FlowIncrementInput in = translation_problem(20, 10, 0.1f, 0.1f);
+  cv::Mat1f du_a, dv_a, du_b, dv_b;
+  flow_increments_cpu(in, du_a, dv_a);
+  flow_increments(in, du_b, dv_b, DeviceKind::cpu);
+  EXPECT_EQ(largest_difference(du_a, du_b), 0);
+  EXPECT_EQ(largest_difference(dv_a, dv_b), 0);
+}
+
+}  // namespace
+}  // namespace pg::gpu

@@ -1,0 +1,87 @@
+// The flow solver's inner iterations (see flow_increments.h): float arithmetic in the order of the CPU
+// reference, no contraction into fused multiply-adds. One work-item per pixel; images row-major.
+#pragma OPENCL FP_CONTRACT OFF
+
+inline float robust_weight(float weight, float squared, float epsilon_squared) {
+  return weight * 0.5f / sqrt(fmax(squared, 0.f) + epsilon_squared);
+}
+
+// Tensor entries are planes of one buffer: plane k of pixel i at t[k * n + i].
+inline float quadratic(__global const float* t, int n, int i, float du, float dv) {
+  return t[i] * du * du + 2 * t[n + i] * du * dv + t[2 * n + i] * dv * dv + 2 * t[3 * n + i] * du +
+         2 * t[4 * n + i] * dv + t[5 * n + i];
+}
+
+inline float left_weight(__global const float* right, int i, int x) { return x > 0 ? right[i - 1] : 0.f; }
+inline float up_weight(__global const float* down, int i, int y, int cols) { return y > 0 ? down[i - cols] : 0.f; }
+
+inline float neighbours(__global const float* f, __global const float* right, __global const float* down, int x,
+                        int y, int cols, int rows) {
+  const int i = y * cols + x;
+  return left_weight(right, i, x) * f[x > 0 ? i - 1 : i] + right[i] * f[x + 1 < cols ? i + 1 : i] +
+         up_weight(down, i, y, cols) * f[y > 0 ? i - cols : i] + down[i] * f[y + 1 < rows ? i + cols : i];
+}
+
+__kernel void smoothness(__global const float* u, __global const float* v, __global const float* du,
+                         __global const float* dv, __global const float* alpha, __global float* psi, int cols,
+                         int rows, float epsilon_squared) {
+  const int x = get_global_id(0), y = get_global_id(1);
+  if (x >= cols || y >= rows) return;
+  const int i = y * cols + x;
+  const int xn = min(x + 1, cols - 1), yn = min(y + 1, rows - 1);
+  const int ix = y * cols + xn, iy = yn * cols + x;
+  const float a0 = u[i] + du[i];
+  const float ax = u[ix] + du[ix] - a0, ay = u[iy] + du[iy] - a0;
+  const float b0 = v[i] + dv[i];
+  const float bx = v[ix] + dv[ix] - b0, by = v[iy] + dv[iy] - b0;
+  const float squared = ax * ax + ay * ay + (bx * bx + by * by);
+  psi[i] = robust_weight(alpha[i], squared, epsilon_squared);
+}
+
+__kernel void edge_weights(__global const float* psi, __global float* right, __global float* down, int cols,
+                           int rows) {
+  const int x = get_global_id(0), y = get_global_id(1);
+  if (x >= cols || y >= rows) return;
+  const int i = y * cols + x;
+  right[i] = x + 1 < cols ? 0.5f * (psi[i] + psi[i + 1]) : 0.f;
+  down[i] = y + 1 < rows ? 0.5f * (psi[i] + psi[i + cols]) : 0.f;
+}
+
+__kernel void linear_system(__global const float* brightness, __global const float* gradient,
+                            __global const float* u, __global const float* v, __global const float* du,
+                            __global const float* dv, __global const float* right, __global const float* down,
+                            __global float* a11_inv, __global float* a22_inv, __global float* a12,
+                            __global float* rhs1, __global float* rhs2, int cols, int rows, float epsilon_squared,
+                            float delta, float gamma) {
+  const int x = get_global_id(0), y = get_global_id(1);
+  if (x >= cols || y >= rows) return;
+  const int i = y * cols + x, n = cols * rows;
+  const float damping = 1e-6f;
+  const float psi_b = robust_weight(delta, quadratic(brightness, n, i, du[i], dv[i]), epsilon_squared);
+  const float psi_g = robust_weight(gamma, quadratic(gradient, n, i, du[i], dv[i]), epsilon_squared);
+  const float total = left_weight(right, i, x) + right[i] + down[i] + up_weight(down, i, y, cols);
+  a11_inv[i] = 1.f / (psi_b * brightness[i] + psi_g * gradient[i] + total + damping);
+  a22_inv[i] = 1.f / (psi_b * brightness[2 * n + i] + psi_g * gradient[2 * n + i] + total + damping);
+  a12[i] = psi_b * brightness[n + i] + psi_g * gradient[n + i];
+  rhs1[i] = neighbours(u, right, down, x, y, cols, rows) - total * u[i] -
+            (psi_b * brightness[3 * n + i] + psi_g * gradient[3 * n + i]);
+  rhs2[i] = neighbours(v, right, down, x, y, cols, rows) - total * v[i] -
+            (psi_b * brightness[4 * n + i] + psi_g * gradient[4 * n + i]);
+}
+
+// One colour of a red-black SOR sweep: pixels with (x + y) % 2 == colour; global size (cols / 2, rows).
+__kernel void sor_colour(__global const float* a11_inv, __global const float* a22_inv, __global const float* a12,
+                         __global const float* rhs1, __global const float* rhs2, __global const float* right,
+                         __global const float* down, __global float* du, __global float* dv, int cols, int rows,
+                         float omega, int colour) {
+  const int y = get_global_id(1);
+  const int x = 2 * get_global_id(0) + ((y + colour) & 1);
+  if (x >= cols || y >= rows) return;
+  const int i = y * cols + x;
+  const float du_new = (1 - omega) * du[i] +
+                       omega * (rhs1[i] + neighbours(du, right, down, x, y, cols, rows) - a12[i] * dv[i]) *
+                           a11_inv[i];
+  du[i] = du_new;
+  dv[i] = (1 - omega) * dv[i] +
+          omega * (rhs2[i] + neighbours(dv, right, down, x, y, cols, rows) - a12[i] * du_new) * a22_inv[i];
+}
