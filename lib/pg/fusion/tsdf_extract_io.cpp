@@ -7,6 +7,7 @@
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/fusion/mesh_cleanup.h"
+#include "pg/mesh/manifold.h"
 #include "pg/fusion/tsdf_grids.h"
 
 namespace pg::fusion {
@@ -86,6 +87,9 @@ Mesh TsdfVolume::extract_mesh(const ExtractOptions& options) const {
   }
   if (options.min_component_faces > 0 || options.min_component_fraction > 0)
     remove_small_components(mesh, options.min_component_faces, options.min_component_fraction);
+  // Dropping unobserved cells can pinch the surface at a vertex; split those so the mesh is a manifold
+  // that half-edge tools (pg-remesh) accept.
+  split_nonmanifold_vertices(mesh);
   return mesh;
 }
 
