@@ -4,7 +4,9 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 
 #include <opencv2/imgproc.hpp>
 
@@ -13,17 +15,50 @@
 namespace pg::flow_detail {
 namespace {
 
+// Rows in parallel, at least ~16k pixels per task so that small levels do not drown in scheduling.
 template <class RowBody>
-void for_rows(int rows, const RowBody& body) {
-  tbb::parallel_for(tbb::blocked_range<int>(0, rows, 2), [&](const tbb::blocked_range<int>& range) {
+void for_rows(int rows, int cols, const RowBody& body) {
+  const int grain = std::max(1, 16384 / std::max(cols, 1));
+  tbb::parallel_for(tbb::blocked_range<int>(0, rows, grain), [&](const tbb::blocked_range<int>& range) {
     for (int y = range.begin(); y != range.end(); ++y) body(y);
   });
+}
+
+// One row of a red-black SOR half-sweep of the 2-D system, n pixels of one colour. `*_side` hold the
+// row's other colour shifted so that [k] and [k + 1] are the left and right neighbours of pixel k;
+// `*_up` and `*_down` the same colour in the rows above and below. The arithmetic (and so the
+// result) matches the per-pixel form: neighbours summed left, right, up, down.
+void sor_row_2d(int n, float keep, float omega, float* __restrict du, float* __restrict dv,
+                const float* __restrict du_side, const float* __restrict du_up,
+                const float* __restrict du_down, const float* __restrict dv_side,
+                const float* __restrict dv_up, const float* __restrict dv_down, const float* __restrict wl,
+                const float* __restrict wr, const float* __restrict wu, const float* __restrict wd,
+                const float* __restrict a11_inv, const float* __restrict a22_inv, const float* __restrict a12,
+                const float* __restrict rhs1, const float* __restrict rhs2) {
+  for (int k = 0; k < n; ++k) {
+    const float du_sum = wl[k] * du_side[k] + wr[k] * du_side[k + 1] + wu[k] * du_up[k] + wd[k] * du_down[k];
+    const float du_new = keep * du[k] + omega * (rhs1[k] + du_sum - a12[k] * dv[k]) * a11_inv[k];
+    du[k] = du_new;
+    const float dv_sum = wl[k] * dv_side[k] + wr[k] * dv_side[k + 1] + wu[k] * dv_up[k] + wd[k] * dv_down[k];
+    dv[k] = keep * dv[k] + omega * (rhs2[k] + dv_sum - a12[k] * du_new) * a22_inv[k];
+  }
+}
+
+// The same for the scalar system of the epipolar mode.
+void sor_row_1d(int n, float keep, float omega, float* __restrict ds, const float* __restrict side,
+                const float* __restrict up, const float* __restrict down, const float* __restrict wl,
+                const float* __restrict wr, const float* __restrict wu, const float* __restrict wd,
+                const float* __restrict a_inv, const float* __restrict rhs) {
+  for (int k = 0; k < n; ++k) {
+    const float sum = wl[k] * side[k] + wr[k] * side[k + 1] + wu[k] * up[k] + wd[k] * down[k];
+    ds[k] = keep * ds[k] + omega * (rhs[k] + sum) * a_inv[k];
+  }
 }
 
 // Five-point central difference (1, -8, 0, 8, -1) / 12 along x, borders replicated.
 void derivative_x(const cv::Mat1f& image, cv::Mat1f& out) {
   const int cols = image.cols;
-  for_rows(image.rows, [&](int y) {
+  for_rows(image.rows, cols, [&](int y) {
     const float* in = image[y];
     float* row = out[y];
     const auto at = [&](int x) { return in[std::clamp(x, 0, cols - 1)]; };
@@ -38,7 +73,7 @@ void derivative_x(const cv::Mat1f& image, cv::Mat1f& out) {
 
 void derivative_y(const cv::Mat1f& image, cv::Mat1f& out) {
   const int cols = image.cols, rows = image.rows;
-  for_rows(rows, [&](int y) {
+  for_rows(rows, cols, [&](int y) {
     const float* m2 = image[std::max(y - 2, 0)];
     const float* m1 = image[std::max(y - 1, 0)];
     const float* p1 = image[std::min(y + 1, rows - 1)];
@@ -51,6 +86,11 @@ void derivative_y(const cv::Mat1f& image, cv::Mat1f& out) {
 // Charbonnier derivative psi'(s^2) = 1 / (2 sqrt(s^2 + eps^2)), times a weight.
 inline float robust_weight(float weight, float squared, float epsilon_squared) {
   return weight * 0.5f / std::sqrt(std::max(squared, 0.f) + epsilon_squared);
+}
+
+// value where mask is all ones, +0 where it is zero: a select without a branch (vectorises).
+inline float keep_if(std::uint32_t mask, float value) {
+  return std::bit_cast<float>(std::bit_cast<std::uint32_t>(value) & mask);
 }
 
 // w^T J w for w = (du, dv, 1) and J given by its entries 11 12 22 13 23 33.
@@ -83,7 +123,7 @@ LevelImages prepare_level(const std::vector<cv::Mat1f>& from, const std::vector<
   if (options.edge_weight > 0) {
     const float k = static_cast<float>(options.edge_weight), alpha = static_cast<float>(options.alpha);
     const float channel_share = 1.f / static_cast<float>(from.size());
-    for_rows(size.height, [&](int y) {
+    for_rows(size.height, size.width, [&](int y) {
       float* row = level.smoothness[y];
       for (int x = 0; x < size.width; ++x) {
         float squared = 0;
@@ -95,13 +135,34 @@ LevelImages prepare_level(const std::vector<cv::Mat1f>& from, const std::vector<
   return level;
 }
 
+void SplitField::create(int rows, int cols) {
+  cols_ = cols;
+  for (cv::Mat1f& part : parts_) part = cv::Mat1f::zeros(rows, (cols + 1) / 2 + 2);
+}
+
+void SplitField::set_zero() {
+  for (cv::Mat1f& part : parts_) part.setTo(0);
+}
+
+void SplitField::merge_into(cv::Mat1f& field) const {
+  for_rows(field.rows, field.cols, [&](int y) {
+    const float* even = row(0, y);
+    const float* odd = row(1, y);
+    float* out = field[y];
+    for (int x = 0; x < field.cols; ++x) out[x] = (x & 1 ? odd : even)[x >> 1];
+  });
+}
+
 LevelSolver::LevelSolver(const LevelImages& images, const FlowOptions& options)
     : images_(images), options_(options), rows_(images.size().height), cols_(images.size().width) {
-  for (cv::Mat1f* m : {&b11_, &b12_,     &b22_,     &b13_, &b23_,  &b33_,          &g11_,         &g12_,
-                       &g22_, &g13_,     &g23_,     &g33_, &psi_,  &weight_right_, &weight_down_, &du_,
-                       &dv_,  &a11_inv_, &a22_inv_, &a12_, &rhs1_, &rhs2_})
+  for (cv::Mat1f* m : {&b11_, &b12_, &b22_, &b13_, &b23_, &b33_, &g11_, &g12_, &g22_, &g13_, &g23_, &g33_,
+                       &psi_, &weight_right_, &weight_down_, &du_, &dv_})
     *m = cv::Mat1f::zeros(rows_, cols_);
+  for (SplitField* f : {&split_du_, &split_dv_, &a11_inv_, &a22_inv_, &a12_, &rhs1_, &rhs2_, &weight_l_,
+                        &weight_r_, &weight_u_, &weight_d_})
+    f->create(rows_, cols_);
   zero_row_.assign(cols_, 0.f);
+  zero_split_row_.assign((cols_ + 1) / 2 + 2, 0.f);
 }
 
 void LevelSolver::compute_tensors(const cv::Mat1f& u, const cv::Mat1f& v) {
@@ -109,54 +170,90 @@ void LevelSolver::compute_tensors(const cv::Mat1f& u, const cv::Mat1f& v) {
   const bool normalise = options_.zeta > 0;
   const int border = 4;  // reach of the second-derivative stencils
   const float max_x = static_cast<float>(cols_ - 1), max_y = static_cast<float>(rows_ - 1);
-  for_rows(rows_, [&](int y) {
-    for (int x = 0; x < cols_; ++x) {
-      const float wx = static_cast<float>(x) + u(y, x), wy = static_cast<float>(y) + v(y, x);
-      float t[12] = {};  // b11 b12 b22 b13 b23 b33 g11 g12 g22 g13 g23 g33
+  cv::Mat1f* const outputs[12] = {&b11_, &b12_, &b22_, &b13_, &b23_, &b33_,
+                                  &g11_, &g12_, &g22_, &g13_, &g23_, &g33_};
+  // Blocks of a row: bilinear taps gathered first, then the tensor arithmetic runs vectorised over the
+  // block (per pixel the same operations in the same order as a per-pixel loop).
+  constexpr int block = 128;
+  for_rows(rows_, cols_, [&](int y) {
+    const float* u_row = u[y];
+    const float* v_row = v[y];
+    const bool interior_row = y >= border && y < rows_ - border;
+    for (int start = 0; start < cols_; start += block) {
+      const int n = std::min(block, cols_ - start);
+      int offset[block];                                     // of the top-left tap, in floats
+      float w00[block], w01[block], w10[block], w11[block];  // tap weights
       // Outside the image (or NaN) the data term is off and smoothness fills in. Within reach of the
       // border the second derivatives see replicated pixels: gradient constancy is off there.
-      if (wx >= 0 && wx <= max_x && wy >= 0 && wy <= max_y) {
-        const bool interior = x >= border && y >= border && x < cols_ - border && y < rows_ - border;
+      std::uint32_t valid[block], interior[block];  // all ones or zero
+      for (int i = 0; i < n; ++i) {
+        const int x = start + i;
+        const float wx = static_cast<float>(x) + u_row[x], wy = static_cast<float>(y) + v_row[x];
+        const bool inside = wx >= 0 && wx <= max_x && wy >= 0 && wy <= max_y;
+        valid[i] = inside ? ~0u : 0u;
+        interior[i] = inside && interior_row && x >= border && x < cols_ - border ? ~0u : 0u;
+        if (!valid[i]) {
+          offset[i] = 0, w00[i] = w01[i] = w10[i] = w11[i] = 0;
+          continue;
+        }
         const int x0 = std::min(static_cast<int>(wx), cols_ - 2),
                   y0 = std::min(static_cast<int>(wy), rows_ - 2);
         const float ax = wx - static_cast<float>(x0), ay = wy - static_cast<float>(y0);
-        const float w00 = (1 - ax) * (1 - ay), w01 = ax * (1 - ay), w10 = (1 - ax) * ay, w11 = ax * ay;
-        const auto sample = [&](const cv::Mat1f& m) {
-          const float* r0 = m[y0];
-          const float* r1 = m[y0 + 1];
-          return w00 * r0[x0] + w01 * r0[x0 + 1] + w10 * r1[x0] + w11 * r1[x0 + 1];
-        };
-        for (std::size_t c = 0; c < images_.from.size(); ++c) {
-          const ImageDerivatives& i1 = images_.from[c];
-          const ImageDerivatives& i2 = images_.to[c];
-          // `to` and its derivatives warped back onto `from`; spatial derivatives of the linearisation
-          // are averaged over both images, which keeps it symmetric.
-          const float i2x = sample(i2.x), i2y = sample(i2.y);
-          const float i1x = i1.x(y, x), i1y = i1.y(y, x);
-          // Brightness constancy: It + Ix du + Iy dv, normalised by the local gradient energy.
-          const float ix = 0.5f * (i1x + i2x), iy = 0.5f * (i1y + i2y),
-                      it = sample(i2.image) - i1.image(y, x);
-          const float nb = normalise ? 1.f / (ix * ix + iy * iy + zeta_squared) : 1.f;
-          t[0] += nb * ix * ix, t[1] += nb * ix * iy, t[2] += nb * iy * iy;
-          t[3] += nb * ix * it, t[4] += nb * iy * it, t[5] += nb * it * it;
-          if (!interior) continue;
-          // Gradient constancy: (Ixt + Ixx du + Ixy dv, Iyt + Ixy du + Iyy dv), each part normalised.
-          const float ixx = 0.5f * (i1.xx(y, x) + sample(i2.xx)), ixy = 0.5f * (i1.xy(y, x) + sample(i2.xy));
-          const float iyy = 0.5f * (i1.yy(y, x) + sample(i2.yy));
-          const float ixt = i2x - i1x, iyt = i2y - i1y;
-          const float ngx = normalise ? 1.f / (ixx * ixx + ixy * ixy + zeta_squared) : 1.f;
-          const float ngy = normalise ? 1.f / (ixy * ixy + iyy * iyy + zeta_squared) : 1.f;
-          t[6] += ngx * ixx * ixx + ngy * ixy * ixy;
-          t[7] += ngx * ixx * ixy + ngy * ixy * iyy;
-          t[8] += ngx * ixy * ixy + ngy * iyy * iyy;
-          t[9] += ngx * ixx * ixt + ngy * ixy * iyt;
-          t[10] += ngx * ixy * ixt + ngy * iyy * iyt;
-          t[11] += ngx * ixt * ixt + ngy * iyt * iyt;
-        }
+        w00[i] = (1 - ax) * (1 - ay), w01[i] = ax * (1 - ay), w10[i] = (1 - ax) * ay, w11[i] = ax * ay;
+        offset[i] = y0 * cols_ + x0;
       }
-      b11_(y, x) = t[0], b12_(y, x) = t[1], b22_(y, x) = t[2], b13_(y, x) = t[3], b23_(y, x) = t[4];
-      b33_(y, x) = t[5], g11_(y, x) = t[6], g12_(y, x) = t[7], g22_(y, x) = t[8], g13_(y, x) = t[9];
-      g23_(y, x) = t[10], g33_(y, x) = t[11];
+      float t[12][block] = {};  // b11 b12 b22 b13 b23 b33 g11 g12 g22 g13 g23 g33
+      for (std::size_t c = 0; c < images_.from.size(); ++c) {
+        const ImageDerivatives& i1 = images_.from[c];
+        const ImageDerivatives& i2 = images_.to[c];
+        // `to` and its derivatives warped back onto `from`.
+        float s_image[block], s_x[block], s_y[block], s_xx[block], s_xy[block], s_yy[block];
+        const auto gather = [&](const cv::Mat1f& m, float* out) {
+          const float* data = m[0];
+          for (int i = 0; i < n; ++i) {
+            const float* r0 = data + offset[i];
+            const float* r1 = r0 + cols_;
+            out[i] = w00[i] * r0[0] + w01[i] * r0[1] + w10[i] * r1[0] + w11[i] * r1[1];
+          }
+        };
+        gather(i2.image, s_image), gather(i2.x, s_x), gather(i2.y, s_y);
+        gather(i2.xx, s_xx), gather(i2.xy, s_xy), gather(i2.yy, s_yy);
+        const float *i1_image = i1.image[y] + start, *i1_x = i1.x[y] + start, *i1_y = i1.y[y] + start;
+        const float *i1_xx = i1.xx[y] + start, *i1_xy = i1.xy[y] + start, *i1_yy = i1.yy[y] + start;
+        // The normalisation switch is a template parameter: no branch inside the vectorised loop.
+        const auto accumulate = [&]<bool Normalise>() {
+          for (int i = 0; i < n; ++i) {
+            // Spatial derivatives of the linearisation are averaged over both images (symmetric).
+            const float i2x = s_x[i], i2y = s_y[i];
+            const float i1x = i1_x[i], i1y = i1_y[i];
+            // Brightness constancy: It + Ix du + Iy dv, normalised by the local gradient energy.
+            const float ix = 0.5f * (i1x + i2x), iy = 0.5f * (i1y + i2y), it = s_image[i] - i1_image[i];
+            const float nb = Normalise ? 1.f / (ix * ix + iy * iy + zeta_squared) : 1.f;
+            const std::uint32_t on = valid[i];
+            t[0][i] += keep_if(on, nb * ix * ix), t[1][i] += keep_if(on, nb * ix * iy);
+            t[2][i] += keep_if(on, nb * iy * iy), t[3][i] += keep_if(on, nb * ix * it);
+            t[4][i] += keep_if(on, nb * iy * it), t[5][i] += keep_if(on, nb * it * it);
+            // Gradient constancy: (Ixt + Ixx du + Ixy dv, Iyt + Ixy du + Iyy dv), each part normalised.
+            const float ixx = 0.5f * (i1_xx[i] + s_xx[i]), ixy = 0.5f * (i1_xy[i] + s_xy[i]);
+            const float iyy = 0.5f * (i1_yy[i] + s_yy[i]);
+            const float ixt = i2x - i1x, iyt = i2y - i1y;
+            const float ngx = Normalise ? 1.f / (ixx * ixx + ixy * ixy + zeta_squared) : 1.f;
+            const float ngy = Normalise ? 1.f / (ixy * ixy + iyy * iyy + zeta_squared) : 1.f;
+            const std::uint32_t gradient = interior[i];
+            t[6][i] += keep_if(gradient, ngx * ixx * ixx + ngy * ixy * ixy);
+            t[7][i] += keep_if(gradient, ngx * ixx * ixy + ngy * ixy * iyy);
+            t[8][i] += keep_if(gradient, ngx * ixy * ixy + ngy * iyy * iyy);
+            t[9][i] += keep_if(gradient, ngx * ixx * ixt + ngy * ixy * iyt);
+            t[10][i] += keep_if(gradient, ngx * ixy * ixt + ngy * iyy * iyt);
+            t[11][i] += keep_if(gradient, ngx * ixt * ixt + ngy * iyt * iyt);
+          }
+        };
+        if (normalise)
+          accumulate.template operator()<true>();
+        else
+          accumulate.template operator()<false>();
+      }
+      for (int k = 0; k < 12; ++k) std::copy(t[k], t[k] + n, (*outputs[k])[y] + start);
     }
   });
   if (options_.clg_rho > 0)
@@ -168,7 +265,7 @@ void LevelSolver::compute_smoothness(const cv::Mat1f& a, const cv::Mat1f& da, co
                                      const cv::Mat1f& db) {
   const float epsilon_squared = static_cast<float>(options_.epsilon * options_.epsilon);
   const bool two = !b.empty();
-  for_rows(rows_, [&](int y) {
+  for_rows(rows_, cols_, [&](int y) {
     const int yn = std::min(y + 1, rows_ - 1);
     float* psi = psi_[y];
     const float* weight = images_.smoothness[y];
@@ -186,7 +283,7 @@ void LevelSolver::compute_smoothness(const cv::Mat1f& a, const cv::Mat1f& da, co
     }
   });
   // Edge weights between neighbours: the mean of both pixels' weights; zero across the border.
-  for_rows(rows_, [&](int y) {
+  for_rows(rows_, cols_, [&](int y) {
     const float* psi = psi_[y];
     const float* below = psi_[std::min(y + 1, rows_ - 1)];
     float* right = weight_right_[y];
@@ -194,6 +291,47 @@ void LevelSolver::compute_smoothness(const cv::Mat1f& a, const cv::Mat1f& da, co
     for (int x = 0; x + 1 < cols_; ++x) right[x] = 0.5f * (psi[x] + psi[x + 1]);
     right[cols_ - 1] = 0;
     for (int x = 0; x < cols_; ++x) down[x] = y + 1 < rows_ ? 0.5f * (psi[x] + below[x]) : 0.f;
+  });
+  split_weights();
+}
+
+void LevelSolver::split_weights() {
+  for_rows(rows_, cols_, [&](int y) {
+    const RowWeights w = row_weights(y);
+    float* left[2] = {weight_l_.row(0, y), weight_l_.row(1, y)};
+    float* right[2] = {weight_r_.row(0, y), weight_r_.row(1, y)};
+    float* up[2] = {weight_u_.row(0, y), weight_u_.row(1, y)};
+    float* down[2] = {weight_d_.row(0, y), weight_d_.row(1, y)};
+    for (int x = 0; x < cols_; ++x) {
+      const int parity = x & 1, k = x >> 1;
+      left[parity][k] = w.left(x), right[parity][k] = w.right[x];
+      up[parity][k] = w.up[x], down[parity][k] = w.down[x];
+    }
+  });
+}
+
+void LevelSolver::sor_half_sweep(int colour, float omega, SplitField& first, SplitField* second) {
+  const float keep = 1 - omega;
+  for_rows(rows_, cols_, [&](int y) {
+    const int parity = (y + colour) & 1, other = 1 - parity, n = first.count(parity);
+    // Beyond the first and last rows the weight is zero; any finite neighbour value does.
+    const auto up = [&](const SplitField& f) {
+      return y > 0 ? f.row(parity, y - 1) : zero_split_row_.data();
+    };
+    const auto down = [&](const SplitField& f) {
+      return y + 1 < rows_ ? f.row(parity, y + 1) : zero_split_row_.data();
+    };
+    const auto side = [&](const SplitField& f) { return f.row(other, y) + parity - 1; };
+    if (second)
+      sor_row_2d(n, keep, omega, first.row(parity, y), second->row(parity, y), side(first), up(first),
+                 down(first), side(*second), up(*second), down(*second), weight_l_.row(parity, y),
+                 weight_r_.row(parity, y), weight_u_.row(parity, y), weight_d_.row(parity, y),
+                 a11_inv_.row(parity, y), a22_inv_.row(parity, y), a12_.row(parity, y), rhs1_.row(parity, y),
+                 rhs2_.row(parity, y));
+    else
+      sor_row_1d(n, keep, omega, first.row(parity, y), side(first), up(first), down(first),
+                 weight_l_.row(parity, y), weight_r_.row(parity, y), weight_u_.row(parity, y),
+                 weight_d_.row(parity, y), a11_inv_.row(parity, y), rhs1_.row(parity, y));
   });
 }
 
@@ -229,55 +367,46 @@ void LevelSolver::solve(cv::Mat1f& u, cv::Mat1f& v) {
     compute_tensors(u, v);
     du_.setTo(0);
     dv_.setTo(0);
+    split_du_.set_zero();
+    split_dv_.set_zero();
     for (int iteration = 0; iteration < options_.fixed_point_iterations; ++iteration) {
       compute_smoothness(u, du_, v, dv_);
       // The linear system of this iteration, robust weights frozen (lagged nonlinearity).
-      for_rows(rows_, [&](int y) {
+      for_rows(rows_, cols_, [&](int y) {
         const RowWeights w = row_weights(y);
+        const float *b11 = b11_[y], *b12 = b12_[y], *b22 = b22_[y], *b13 = b13_[y], *b23 = b23_[y],
+                    *b33 = b33_[y];
+        const float *g11 = g11_[y], *g12 = g12_[y], *g22 = g22_[y], *g13 = g13_[y], *g23 = g23_[y],
+                    *g33 = g33_[y];
+        const float *du_row = du_[y], *dv_row = dv_[y], *u_row = u[y], *v_row = v[y];
+        float* a11_inv[2] = {a11_inv_.row(0, y), a11_inv_.row(1, y)};
+        float* a22_inv[2] = {a22_inv_.row(0, y), a22_inv_.row(1, y)};
+        float* a12[2] = {a12_.row(0, y), a12_.row(1, y)};
+        float* rhs1[2] = {rhs1_.row(0, y), rhs1_.row(1, y)};
+        float* rhs2[2] = {rhs2_.row(0, y), rhs2_.row(1, y)};
         for (int x = 0; x < cols_; ++x) {
-          const float du = du_(y, x), dv = dv_(y, x);
+          const int parity = x & 1, k = x >> 1;
+          const float du = du_row[x], dv = dv_row[x];
           const float psi_b = robust_weight(
-              delta,
-              quadratic(b11_(y, x), b12_(y, x), b22_(y, x), b13_(y, x), b23_(y, x), b33_(y, x), du, dv),
-              epsilon_squared);
+              delta, quadratic(b11[x], b12[x], b22[x], b13[x], b23[x], b33[x], du, dv), epsilon_squared);
           const float psi_g = robust_weight(
-              gamma,
-              quadratic(g11_(y, x), g12_(y, x), g22_(y, x), g13_(y, x), g23_(y, x), g33_(y, x), du, dv),
-              epsilon_squared);
+              gamma, quadratic(g11[x], g12[x], g22[x], g13[x], g23[x], g33[x], du, dv), epsilon_squared);
           const float total = w.total(x);
-          a11_inv_(y, x) = 1.f / (psi_b * b11_(y, x) + psi_g * g11_(y, x) + total + damping);
-          a22_inv_(y, x) = 1.f / (psi_b * b22_(y, x) + psi_g * g22_(y, x) + total + damping);
-          a12_(y, x) = psi_b * b12_(y, x) + psi_g * g12_(y, x);
-          rhs1_(y, x) =
-              weighted_neighbours(u, w, y, x) - total * u(y, x) - (psi_b * b13_(y, x) + psi_g * g13_(y, x));
-          rhs2_(y, x) =
-              weighted_neighbours(v, w, y, x) - total * v(y, x) - (psi_b * b23_(y, x) + psi_g * g23_(y, x));
+          a11_inv[parity][k] = 1.f / (psi_b * b11[x] + psi_g * g11[x] + total + damping);
+          a22_inv[parity][k] = 1.f / (psi_b * b22[x] + psi_g * g22[x] + total + damping);
+          a12[parity][k] = psi_b * b12[x] + psi_g * g12[x];
+          rhs1[parity][k] =
+              weighted_neighbours(u, w, y, x) - total * u_row[x] - (psi_b * b13[x] + psi_g * g13[x]);
+          rhs2[parity][k] =
+              weighted_neighbours(v, w, y, x) - total * v_row[x] - (psi_b * b23[x] + psi_g * g23[x]);
         }
       });
-      for (int sweep = 0; sweep < options_.sor_iterations; ++sweep) {
-        for (int colour = 0; colour < 2; ++colour) {
-          // Red-black: pixels of one colour only depend on the other, so rows run in parallel and the
-          // result does not depend on the thread count.
-          for_rows(rows_, [&](int y) {
-            const RowWeights w = row_weights(y);
-            const float* a11_inv = a11_inv_[y];
-            const float* a22_inv = a22_inv_[y];
-            const float* a12 = a12_[y];
-            const float* rhs1 = rhs1_[y];
-            const float* rhs2 = rhs2_[y];
-            float* du = du_[y];
-            float* dv = dv_[y];
-            for (int x = (y + colour) & 1; x < cols_; x += 2) {
-              const float du_new =
-                  (1 - omega) * du[x] +
-                  omega * (rhs1[x] + weighted_neighbours(du_, w, y, x) - a12[x] * dv[x]) * a11_inv[x];
-              du[x] = du_new;
-              dv[x] = (1 - omega) * dv[x] +
-                      omega * (rhs2[x] + weighted_neighbours(dv_, w, y, x) - a12[x] * du_new) * a22_inv[x];
-            }
-          });
-        }
-      }
+      // Red-black: pixels of one colour only depend on the other, so rows run in parallel and the
+      // result does not depend on the thread count.
+      for (int sweep = 0; sweep < options_.sor_iterations; ++sweep)
+        for (int colour = 0; colour < 2; ++colour) sor_half_sweep(colour, omega, split_du_, &split_dv_);
+      split_du_.merge_into(du_);
+      split_dv_.merge_into(dv_);
     }
     u += du_;
     v += dv_;
@@ -294,7 +423,7 @@ void LevelSolver::solve_along(cv::Mat1f& s, const cv::Mat2f& base, const cv::Mat
   cv::Mat1f u(rows_, cols_), v(rows_, cols_);
   cv::Mat1f& ds = du_;  // the increment of s; dv_ is unused in this mode
   for (int warp = 0; warp < options_.warps; ++warp) {
-    for_rows(rows_, [&](int y) {
+    for_rows(rows_, cols_, [&](int y) {
       for (int x = 0; x < cols_; ++x) {
         const cv::Vec2f b = base(y, x), d = direction(y, x);
         // NaN flow puts the warped position outside the image: no data term there.
@@ -304,14 +433,19 @@ void LevelSolver::solve_along(cv::Mat1f& s, const cv::Mat2f& base, const cv::Mat
     });
     compute_tensors(u, v);
     ds.setTo(0);
+    split_du_.set_zero();
     for (int iteration = 0; iteration < options_.fixed_point_iterations; ++iteration) {
       compute_smoothness(s, ds, cv::Mat1f(), cv::Mat1f());
-      for_rows(rows_, [&](int y) {
+      for_rows(rows_, cols_, [&](int y) {
         const RowWeights w = row_weights(y);
+        const cv::Vec2f* directions = direction[y];
+        const float* ds_row = ds[y];
+        float* a_inv[2] = {a11_inv_.row(0, y), a11_inv_.row(1, y)};
+        float* rhs[2] = {rhs1_.row(0, y), rhs1_.row(1, y)};
         for (int x = 0; x < cols_; ++x) {
-          const cv::Vec2f d = direction(y, x);
+          const cv::Vec2f d = directions[x];
           const float dx = std::isfinite(d[0]) ? d[0] : 0.f, dy = std::isfinite(d[1]) ? d[1] : 0.f;
-          const float du = ds(y, x) * dx, dv = ds(y, x) * dy;
+          const float du = ds_row[x] * dx, dv = ds_row[x] * dy;
           const float psi_b = robust_weight(
               delta,
               quadratic(b11_(y, x), b12_(y, x), b22_(y, x), b13_(y, x), b23_(y, x), b33_(y, x), du, dv),
@@ -327,22 +461,14 @@ void LevelSolver::solve_along(cv::Mat1f& s, const cv::Mat2f& base, const cv::Mat
           const float c1 = psi_b * b13_(y, x) + psi_g * g13_(y, x),
                       c2 = psi_b * b23_(y, x) + psi_g * g23_(y, x);
           const float total = w.total(x);
-          a11_inv_(y, x) = 1.f / (dx * dx * a11 + 2 * dx * dy * a12 + dy * dy * a22 + total + damping);
-          rhs1_(y, x) = weighted_neighbours(s, w, y, x) - total * s(y, x) - (dx * c1 + dy * c2);
+          const int parity = x & 1, k = x >> 1;
+          a_inv[parity][k] = 1.f / (dx * dx * a11 + 2 * dx * dy * a12 + dy * dy * a22 + total + damping);
+          rhs[parity][k] = weighted_neighbours(s, w, y, x) - total * s(y, x) - (dx * c1 + dy * c2);
         }
       });
-      for (int sweep = 0; sweep < options_.sor_iterations; ++sweep) {
-        for (int colour = 0; colour < 2; ++colour) {
-          for_rows(rows_, [&](int y) {
-            const RowWeights w = row_weights(y);
-            const float* a_inv = a11_inv_[y];
-            const float* rhs = rhs1_[y];
-            float* row = ds[y];
-            for (int x = (y + colour) & 1; x < cols_; x += 2)
-              row[x] = (1 - omega) * row[x] + omega * (rhs[x] + weighted_neighbours(ds, w, y, x)) * a_inv[x];
-          });
-        }
-      }
+      for (int sweep = 0; sweep < options_.sor_iterations; ++sweep)
+        for (int colour = 0; colour < 2; ++colour) sor_half_sweep(colour, omega, split_du_, nullptr);
+      split_du_.merge_into(ds);
     }
     s += ds;
     median_filter(s);

@@ -21,6 +21,23 @@ struct ImageDerivatives {
   cv::Mat1f image, x, y, xx, xy, yy;
 };
 
+// A field in red-black order: each row's even and odd pixels in two contiguous arrays, with one zero
+// slot at either end, so an SOR half-sweep reads and writes contiguous memory and vectorises.
+class SplitField {
+ public:
+  void create(int rows, int cols);  // all zero
+  // Pixels of `parity` in row y: pixel x = 2k + parity at index k; indices -1 and count(parity) hold 0.
+  float* row(int parity, int y) { return parts_[parity][y] + 1; }
+  const float* row(int parity, int y) const { return parts_[parity][y] + 1; }
+  int count(int parity) const { return (cols_ - parity + 1) / 2; }
+  void set_zero();
+  void merge_into(cv::Mat1f& field) const;
+
+ private:
+  cv::Mat1f parts_[2];
+  int cols_ = 0;
+};
+
 // Both images at one level, channel by channel, and the smoothness weight of each pixel.
 struct LevelImages {
   std::vector<ImageDerivatives> from, to;
@@ -50,6 +67,11 @@ class LevelSolver {
   void compute_smoothness(const cv::Mat1f& a, const cv::Mat1f& da, const cv::Mat1f& b, const cv::Mat1f& db);
 
   RowWeights row_weights(int y) const;
+  // The SOR weights in red-black order from weight_right_ / weight_down_.
+  void split_weights();
+  // One red-black SOR half-sweep over the pixels x + y = colour (mod 2): the 2-D system (free flow)
+  // or, with `second` null, the scalar one (epipolar mode).
+  void sor_half_sweep(int colour, float omega, SplitField& first, SplitField* second);
   // options_.median_radius median of a flow component or s, in place (no-op at radius 0).
   void median_filter(cv::Mat1f& field) const;
 
@@ -63,7 +85,11 @@ class LevelSolver {
   cv::Mat1f weight_right_, weight_down_;  // smoothness weight between x and its right / lower neighbour
   std::vector<float> zero_row_;           // weights above the first row
   cv::Mat1f du_, dv_;                     // increments of the current warp
-  cv::Mat1f a11_inv_, a22_inv_, a12_, rhs1_, rhs2_;  // the linear system of the current iteration
+  SplitField split_du_, split_dv_;        // the same, in red-black order, updated by SOR
+  // The linear system of the current iteration and the smoothness weights to the left, right, above
+  // and below each pixel, in red-black order.
+  SplitField a11_inv_, a22_inv_, a12_, rhs1_, rhs2_, weight_l_, weight_r_, weight_u_, weight_d_;
+  std::vector<float> zero_split_row_;  // neighbours beyond the first and last rows (weight 0)
 };
 
 }  // namespace pg::flow_detail
