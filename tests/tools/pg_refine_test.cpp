@@ -84,7 +84,7 @@ TEST(PgRefine, RefinesWritesCachesReportAndErrorImages) {
   EXPECT_TRUE(same_positions(pg::read_mesh(dir / "post.ply"), refined));
   // Only part of the rock is seen by these four views: the whole mesh still gets closer to the truth.
   EXPECT_LT(accuracy(dir / "refined.ply", s / "mesh.ply"),
-            0.85 * accuracy(s / "initial.ply", s / "mesh.ply"));
+            0.55 * accuracy(s / "initial.ply", s / "mesh.ply"));
   EXPECT_TRUE(fs::exists(dir / "err" / "error_before.png"));
   EXPECT_TRUE(fs::exists(dir / "err" / "error_after.png"));
 
@@ -92,10 +92,11 @@ TEST(PgRefine, RefinesWritesCachesReportAndErrorImages) {
   const auto& metrics = report.at("metrics");
   ASSERT_EQ(metrics.at("iterations").size(), 3u);
   EXPECT_EQ(metrics.at("pairs").size(), 3u);
+  EXPECT_EQ(metrics.at("flow_mode"), "epipolar");
   const auto& first = metrics.at("iterations")[0];
   EXPECT_EQ(first.at("error_before").size(), 6u);  // both directions of 3 pairs
   EXPECT_GT(first.at("mean_displacement").get<double>(), 0.0);
-  EXPECT_LT(metrics.at("ncc_error_after").get<double>(), metrics.at("ncc_error_before").get<double>() - 0.1);
+  EXPECT_LT(metrics.at("ncc_error_after").get<double>(), metrics.at("ncc_error_before").get<double>() - 0.3);
   for (std::size_t k = 0; k < 6; ++k)
     EXPECT_LT(metrics.at("iterations")[2].at("error_after")[k].at("ncc_error").get<double>(),
               first.at("error_before")[k].at("ncc_error").get<double>());

@@ -28,7 +28,7 @@ struct RunArgs {
   std::vector<std::string> views, pairs;
   int pairs_per_view = 2;
   std::string working_set, pinned, pre_cache, post_cache, error_images;
-  std::string flow_mode = "free", flow_preset = "fast";
+  std::string flow_mode = "epipolar", flow_preset = "fast";
   pg::RefineOptions options;
 };
 
@@ -69,7 +69,7 @@ void run_refinement(pg::cli::Frame& frame, RunArgs& args) {
   if (!args.post_cache.empty()) frame.output(args.post_cache);
   if (!args.error_images.empty()) frame.output_dir(args.error_images);
   args.options.flow_mode = args.flow_mode == "free" ? pg::RefineFlow::free : pg::RefineFlow::epipolar;
-  args.options.flow = pg::FlowOptions::preset(args.flow_preset);
+  args.options.flow = pg::refine_flow_options(args.flow_preset);
   args.options.check();
 
   const pg::Mesh mesh = pg::read_mesh(args.mesh);
@@ -163,6 +163,7 @@ void run_refinement(pg::cli::Frame& frame, RunArgs& args) {
   nlohmann::json pair_ids = nlohmann::json::array();
   for (const auto& p : pairs) pair_ids.push_back({cameras[p.a].id, cameras[p.b].id});
   report.set_metric("pairs", pair_ids);
+  report.set_metric("flow_mode", args.flow_mode);
   report.set_metric("iterations", iterations);
   auto mean_ncc = [](const std::vector<pg::PairError>& errors) {
     double sum = 0;
@@ -291,7 +292,7 @@ int main(int argc, char** argv) {
                   "vertex rings over which motion ramps up inside the working set")
       ->capture_default_str();
   run->add_option("--flow", run_args.flow_mode,
-                  "free (2-D) or epipolar (along the epipolar lines through the current surface)")
+                  "epipolar (1-D, along the lines through the current surface; exact cameras) or free (2-D)")
       ->capture_default_str()
       ->check(CLI::IsMember({"epipolar", "free"}));
   run->add_option("--flow-preset", run_args.flow_preset, "fast, balanced or accurate")

@@ -35,6 +35,13 @@ struct SyntheticView {
 void synthesize(const Mesh& mesh, const RefineViewState& a, const RefineViewState& b,
                 double relative_depth_tolerance, SyntheticView& out);
 
+// The lines of the epipolar flow for a directed pair: for each synthetic-B pixel, the B image of A's
+// ray through the surface point it shows, as base 0 (the pixel itself) and a unit direction (the
+// line's tangent at the pixel, towards A). Pixels that are not co-visible borrow the nearest line's
+// direction; all directions are NaN when no pixel is co-visible.
+EpipolarField surface_epipolar_field(const Mesh& mesh, const RefineViewState& a, const RefineViewState& b,
+                                     const SyntheticView& synthetic);
+
 // Per-vertex point-to-plane normal equations. Each pixel says the surface must move by delta along
 // its face normal n (the triangulated point lies delta in front of the current surface); with
 // barycentric weight w it adds w n n^T to `normal_matrix` and w delta n to `rhs`. Pixels around a

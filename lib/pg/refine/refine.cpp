@@ -59,6 +59,13 @@ void RefineOptions::check() const {
   flow.check();
 }
 
+FlowOptions refine_flow_options(const std::string& preset) {
+  FlowOptions flow = FlowOptions::preset(preset);
+  flow.alpha = 1.0;
+  flow.epipolar_alpha = 1.0;
+  return flow;
+}
+
 Camera scaled_camera(const Camera& camera, double factor) {
   Camera c = camera;
   c.width = std::max(1, int(std::lround(camera.width * factor)));
