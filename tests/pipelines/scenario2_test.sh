@@ -6,7 +6,7 @@
 . "$(dirname "$0")/lib.sh"
 bin="$1"; work="$2"
 rm -rf "$work"
-run_make() { make -f pipelines/demo.mk WORK="$work" PG_BIN="$bin" PROGRESS=off "$@"; }
+run_make() { make -s -f pipelines/demo.mk WORK="$work" PG_BIN="$bin" PROGRESS=off "$@"; }
 run_make -j2 demo || fail "make -j2 failed"
 
 # Accuracy against the truth. The set is about 5 m across, seen from 5.5 m at 640x480: the tracked

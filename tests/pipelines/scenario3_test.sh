@@ -10,6 +10,6 @@ make -f pipelines/synth-scenario3.mk WORK="$work" PG_BIN="$bin" PROGRESS=off -j2
 check_below "merged accuracy median (m)" "$(metric "$work/reports/eval-mesh-merged.report.json" accuracy_median)" 0.05
 check_below "refined accuracy median (m)" "$(metric "$work/reports/eval-mesh-refined.report.json" accuracy_median)" 0.05
 check_below "panorama mesh accuracy median (m)" "$(metric "$work/reports/eval-mesh-panorama.report.json" accuracy_median)" 0.2
-[ -z "$(make -f pipelines/synth-scenario3.mk WORK="$work" PG_BIN="$bin" PROGRESS=off -n)" ] \
+[ -z "$(make -f pipelines/synth-scenario3.mk WORK="$work" PG_BIN="$bin" PROGRESS=off -s -n)" ] \
   || fail "a second make would run something"
 echo "ok: second make has nothing to do"

@@ -126,6 +126,8 @@ int main(int argc, char** argv) {
   app.add_option("--min-angle", o.filter.min_triangulation_angle_deg,
                  "minimum triangulation angle, degrees (1)");
   app.add_option("--max-fb-error", o.filter.max_fb_error, "forward-backward flow error limit, pixels (1)");
+  app.add_option("--min-texture", o.filter.min_texture,
+                 "local RMS intensity gradient below which no depth is given (0.004; 0 = off)");
   app.add_option("--max-grazing", o.filter.max_grazing_angle_deg,
                  "maximum normal-to-ray angle, degrees (80)");
   app.add_option("--max-depth-jump", o.filter.max_depth_jump,
@@ -201,7 +203,7 @@ int main(int argc, char** argv) {
                             100 * result.depth.valid_fraction(), "%); rejected: masked ", r.masked,
                             ", untriangulated ", r.untriangulated, ", inconsistent ", r.inconsistent,
                             ", small angle ", r.small_angle, ", epipolar ", r.epipolar, ", grazing ",
-                            r.grazing, ", discontinuity ", r.discontinuity));
+                            r.grazing, ", discontinuity ", r.discontinuity, ", textureless ", r.textureless));
       valid += result.depth.valid;
       total += result.depth.map.depth.total();
       flow_seconds += result.flow_seconds;

@@ -1,5 +1,7 @@
 #include "pg/depth/depth_from_flow.h"
 
+#include <opencv2/imgproc.hpp>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -24,7 +26,8 @@ enum Outcome : std::uint8_t {
   small_angle,
   epipolar,
   grazing,
-  discontinuity
+  discontinuity,
+  textureless
 };
 
 double radians(double degrees) {
@@ -44,11 +47,34 @@ void DepthFilterOptions::check() const {
   require(max_grazing_angle_deg > 0 && max_grazing_angle_deg <= 90, "max_grazing_angle_deg",
           max_grazing_angle_deg, "must be in (0, 90]");
   require(max_depth_jump > 0, "max_depth_jump", max_depth_jump, "must be positive");
+  require(min_texture >= 0, "min_texture", min_texture, "must not be negative");
 }
 
 double DepthFromFlowResult::valid_fraction() const {
   const double total = static_cast<double>(map.depth.total());
   return total > 0 ? static_cast<double>(valid) / total : 0.0;
+}
+
+cv::Mat1f local_texture(const cv::Mat& image) {
+  cv::Mat grey;
+  if (image.channels() == 1) {
+    grey = image;
+  } else {
+    cv::Mat bgr;
+    if (image.channels() == 4) cv::cvtColor(image, bgr, cv::COLOR_BGRA2BGR);
+    else bgr = image;
+    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+  }
+  const double scale = image.depth() == CV_8U ? 1.0 / 255 : image.depth() == CV_16U ? 1.0 / 65535 : 1.0;
+  cv::Mat1f g;
+  grey.convertTo(g, CV_32F, scale);
+  cv::Mat1f gx, gy;
+  cv::Sobel(g, gx, CV_32F, 1, 0, 3, 1.0 / 8);  // per-pixel derivative
+  cv::Sobel(g, gy, CV_32F, 0, 1, 3, 1.0 / 8);
+  cv::Mat1f energy = gx.mul(gx) + gy.mul(gy);
+  cv::boxFilter(energy, energy, CV_32F, cv::Size(7, 7));
+  cv::sqrt(energy, energy);
+  return energy;
 }
 
 DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const DepthFilterOptions& options) {
@@ -66,6 +92,8 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
     throw UsageError("depth_from_flow: reference mask size differs from the camera");
   if (!input.other_mask.empty() && input.other_mask.size() != cv::Size(other.width, other.height))
     throw UsageError("depth_from_flow: other mask size differs from its camera");
+  if (!input.texture.empty() && input.texture.size() != size)
+    throw UsageError("depth_from_flow: texture size differs from the camera");
   const Eigen::Vector3d centre_ref = ref.cam_from_world.centre(),
                         centre_other = other.cam_from_world.centre();
   if ((centre_ref - centre_other).norm() <= 1e-12 * std::max(1.0, centre_ref.norm()))
@@ -91,6 +119,10 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
         }
         if (!target.allFinite() || !other.in_image(target)) {
           outcome(y, x) = untriangulated;
+          continue;
+        }
+        if (!input.texture.empty() && input.texture(y, x) < options.min_texture) {
+          outcome(y, x) = textureless;
           continue;
         }
         if (!input.other_mask.empty() && input.other_mask(static_cast<int>(std::lround(target.y())),
@@ -195,6 +227,9 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
           break;
         case discontinuity:
           ++result.rejections.discontinuity;
+          break;
+        case textureless:
+          ++result.rejections.textureless;
           break;
       }
       if (outcome(y, x) != kept) {

@@ -15,6 +15,9 @@ struct DepthFilterOptions {
   double max_epipolar_residual = 1.0;        // reprojection error of the triangulated point, pixels
   double max_grazing_angle_deg = 80.0;       // angle between the surface normal and the viewing ray
   double max_depth_jump = 0.04;              // relative depth step to a 4-neighbour: a discontinuity
+  // Local image texture (RMS intensity gradient per pixel over a 7x7 window, intensities in [0, 1])
+  // below which the flow is only interpolated by its smoothness term (sky, blank walls): no depth there.
+  double min_texture = 0.004;
   // Rejected pixels keep their depth; rejections show only in the confidence channel (for scoring
   // against dense ground truth).
   bool keep_all = false;
@@ -30,6 +33,7 @@ struct DepthRejections {
   std::size_t epipolar = 0;
   std::size_t grazing = 0;
   std::size_t discontinuity = 0;
+  std::size_t textureless = 0;     // reference image too flat to match (min_texture)
 };
 
 struct DepthFromFlowResult {
@@ -46,7 +50,12 @@ struct DepthFromFlowInput {
   cv::Mat1f fb_error;        // optional: forward_backward_error(flow, backward)
   cv::Mat1b reference_mask;  // optional, reference size: nonzero = ignore
   cv::Mat1b other_mask;      // optional, other camera's size: nonzero = ignore
+  cv::Mat1f texture;         // optional, reference size: local_texture(reference image)
 };
+
+// RMS intensity gradient over a 7x7 window of a grey or colour image (scaled to [0, 1] intensities),
+// the measure DepthFilterOptions::min_texture is compared with.
+cv::Mat1f local_texture(const cv::Mat& image);
 
 // Throws UsageError for missing cameras, mismatched sizes or cameras sharing their centre.
 DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const DepthFilterOptions& options = {});

@@ -68,6 +68,7 @@ DepthPairResult compute_depth_pair(const DepthPairInput& input, const DepthPairO
   depth_input.fb_error = flow.fb_error;
   depth_input.reference_mask = resized(input.reference_mask, ref_size, cv::INTER_NEAREST);
   depth_input.other_mask = resized(input.other_mask, other_size, cv::INTER_NEAREST);
+  depth_input.texture = local_texture(ref_image);
   result.depth = depth_from_flow(depth_input, options.filter);
   result.triangulation_seconds = seconds_since(triangulation_start);
   result.flow = flow.forward;
