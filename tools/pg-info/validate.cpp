@@ -9,6 +9,8 @@
 #include "pg/core/error.h"
 #include "pg/core/json_file.h"
 #include "pg/core/log.h"
+#include "pg/eval/flo_io.h"
+#include "pg/fusion/tsdf_volume.h"
 #include "pg/image/depth_exr.h"
 #include "pg/image/image_io.h"
 #include "pg/mesh/mesh_io.h"
@@ -64,6 +66,15 @@ std::string validate_file(const fs::path& path) {
   if (ext == ".ply" || ext == ".obj") {
     Mesh mesh = read_mesh(path);
     return str("mesh: ", mesh.vertex_count(), " vertices, ", mesh.face_count(), " faces");
+  }
+  if (ext == ".flo") {
+    const cv::Mat2f flow = read_flo(path);
+    return str("flo: ", flow.cols, "x", flow.rows);
+  }
+  if (ext == ".vdb") {
+    const fusion::TsdfVolume volume = fusion::TsdfVolume::read_vdb(path);
+    return str("pg-tsdf: voxel size ", volume.voxel_size(), ", ", volume.active_voxel_count(),
+               " active voxels");
   }
   if (ext == ".exr" && is_pg_depth_exr(path)) {
     DepthMap depth = read_depth_exr(path);
