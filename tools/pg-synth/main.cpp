@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   std::string scene_name;
   std::string out;
   std::string lens = "pinhole";
+  std::string encoding = "srgb8";
   pg::synth::SceneOptions scene_options;
   pg::synth::WriteOptions write_options;
   auto& app = frame.app();
@@ -36,11 +37,17 @@ int main(int argc, char** argv) {
   app.add_option("--supersample", write_options.supersample, "samples per pixel side for anti-aliasing")
       ->capture_default_str()
       ->check(CLI::Range(1, 8));
+  app.add_option(
+         "--encoding", encoding,
+         "images: srgb8 (8-bit sRGB, as a camera) or linear16 (16-bit linear light, for measurements)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"srgb8", "linear16"}));
   app.add_flag("!--no-depth", write_options.write_depth, "skip the depth EXRs");
 
   return frame.run(argc, argv, [&] {
     scene_options.seed = std::uint32_t(frame.seed());
     scene_options.lens = pg::camera_model_from_string(lens);
+    write_options.encoding = pg::synth::image_encoding_from_string(encoding);
     frame.output_dir(out);
     pg::synth::Scene scene = pg::synth::make_scene(scene_name, scene_options);
     pg::synth::write_scene(scene, out, write_options);

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "pg/calib/calibrate.h"
+#include "pg/calib/corner_fit.h"
 #include "pg/calib/detect.h"
 #include "pg/calib/flatten.h"
 #include "pg/core/error.h"
@@ -218,6 +219,39 @@ TEST(Detect, SubpixWindowFitsInsideTheSquares) {
   EXPECT_EQ(subpix_half_window(4), 2);
   for (double s : {10.0, 20.0, 30.0, 40.0}) EXPECT_LT(2 * subpix_half_window(s) + 1, s);
   EXPECT_EQ(subpix_half_window(1000), 12);
+}
+
+// A 4x3-corner board under a strong perspective, each pixel the exact mean of the checker over its
+// area (16 x 16 samples): the X-junction fit lands on the true corners from half a pixel away.
+TEST(Detect, CornerFitFindsIdealCornersUnderPerspective) {
+  const BoardSpec small{4, 3, 1.0};
+  cv::Matx33d H(28, 9, 40.3, -6, 24, 37.7, 0.06, 0.03, 1);  // board units -> pixels
+  const cv::Matx33d inverse = H.inv();
+  cv::Mat image(150, 190, CV_32F);
+  const int n = 16;
+  for (int y = 0; y < image.rows; ++y)
+    for (int x = 0; x < image.cols; ++x) {
+      double sum = 0;
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          const cv::Vec3d q = inverse * cv::Vec3d(x + (i + 0.5) / n - 0.5, y + (j + 0.5) / n - 0.5, 1);
+          const double u = q[0] / q[2], v = q[1] / q[2];
+          sum += (int(std::floor(u)) + int(std::floor(v))) % 2 == 0 ? 0.9 : 0.1;
+        }
+      image.at<float>(y, x) = float(sum / (n * n));
+    }
+  std::vector<cv::Point2f> truth, corners;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> offset(-0.5f, 0.5f);
+  for (int r = 0; r < small.rows; ++r)
+    for (int c = 0; c < small.cols; ++c) {
+      const cv::Vec3d p = H * cv::Vec3d(c + 1, r + 1, 1);
+      truth.emplace_back(float(p[0] / p[2]), float(p[1] / p[2]));
+      corners.push_back(truth.back() + cv::Point2f(offset(rng), offset(rng)));
+    }
+  ASSERT_EQ(fit_corners(image, small, corner_fit_radius(smallest_square(truth, small)), corners),
+            small.corner_count());
+  for (std::size_t i = 0; i < truth.size(); ++i) EXPECT_LT(cv::norm(corners[i] - truth[i]), 0.01) << i;
 }
 
 TEST(LineFit, StraightAndBentGrids) {

@@ -167,6 +167,14 @@ std::vector<double> view_rms(const std::vector<ViewInput>& views, const std::vec
   return rms;
 }
 
+// Median view RMS above which an initial estimate is taken as failed rather than hurt by outlier views.
+constexpr double kFailedFitMedianRms = 1.0;
+
+double median_of(std::vector<double> values) {
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
 Initial initial_calibration(const std::vector<ViewInput>& views, const BoardSpec& board, cv::Size size,
                             const CalibrationOptions& options, std::vector<ViewResult>& results) {
   Initial init;
@@ -185,10 +193,17 @@ Initial initial_calibration(const std::vector<ViewInput>& views, const BoardSpec
       log::info(e.what(), "; starting from the pinhole estimate instead");
       init.cv = fisheye_fallback(subset, board, size, options);
     }
-    const std::vector<double> rms = view_rms(views, init.used, board, init.cv, options.model);
-    std::vector<double> sorted = rms;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    const double median = sorted[sorted.size() / 2];
+    std::vector<double> rms = view_rms(views, init.used, board, init.cv, options.model);
+    double median = median_of(rms);
+    // A median view off by pixels means OpenCV's fisheye fit itself went astray (its homography start
+    // fails on strongly tilted boards), not that one view is bad: start from the pinhole estimate.
+    if (options.model == LensModel::fisheye && median > kFailedFitMedianRms) {
+      log::info("OpenCV's fisheye estimate is off (median view RMS ", median,
+                " px); starting from the pinhole estimate instead");
+      init.cv = fisheye_fallback(subset, board, size, options);
+      rms = view_rms(views, init.used, board, init.cv, options.model);
+      median = median_of(rms);
+    }
     const double threshold =
         options.max_view_rms > 0 ? options.max_view_rms : std::max(0.5, options.view_rms_factor * median);
     const auto worst = std::max_element(rms.begin(), rms.end());

@@ -34,7 +34,8 @@ struct CalibrationOptions {
   double max_view_rms = 0;
   double view_rms_factor = 3;
   bool refine = true;  // our Ceres refinement after OpenCV's estimate
-  // Corners whose residual exceeds this many robust standard deviations are dropped (0: keep all).
+  // Corners whose residual exceeds this many robust standard deviations (and 0.1 px) are dropped
+  // (0: keep all).
   double corner_outlier_sigmas = 3;
   bool board_warp = false;  // model the board as a shallow paraboloid in x and y (2 parameters)
 };

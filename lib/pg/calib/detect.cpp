@@ -5,6 +5,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "pg/calib/corner_fit.h"
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 
@@ -43,6 +44,20 @@ cv::Mat to_gray8(const cv::Mat& image) {
     gray.convertTo(out, CV_8U, 1.0 / 257.0);
   else
     gray.convertTo(out, CV_8U, 255.0);  // float in [0, 1]; saturating
+  return out;
+}
+
+cv::Mat to_gray_float(const cv::Mat& image) {
+  cv::Mat gray;
+  if (image.channels() == 1)
+    gray = image;
+  else if (image.channels() == 3)
+    cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  else
+    cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
+  cv::Mat out;
+  const double scale = gray.depth() == CV_8U ? 1.0 / 255 : gray.depth() == CV_16U ? 1.0 / 65535 : 1.0;
+  gray.convertTo(out, CV_32F, scale);
   return out;
 }
 
@@ -94,12 +109,16 @@ std::string degeneracy(const std::vector<cv::Point2f>& corners, const BoardSpec&
 
 namespace {
 
-// Moves each corner to the saddle point of the image gradient, within a window fitted to the view.
-void refine_corners(const cv::Mat& gray, const BoardSpec& board, Detection& d) {
-  d.subpix_half_window = subpix_half_window(smallest_square(d.corners, board));
+// Moves each corner to the saddle point of the image gradient, within a window fitted to the view,
+// then fits the X-junction model there on the image at its full depth (16-bit and float data keep
+// the precision the 8-bit copy for the detectors drops).
+void refine_corners(const cv::Mat& image, const cv::Mat& gray, const BoardSpec& board, Detection& d) {
+  const double square = smallest_square(d.corners, board);
+  d.subpix_half_window = subpix_half_window(square);
   const int w = d.subpix_half_window;
   cv::cornerSubPix(gray, d.corners, {w, w}, {-1, -1},
                    cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-4));
+  fit_corners(to_gray_float(image), board, corner_fit_radius(square), d.corners);
 }
 
 Detection detect_sector_based(const cv::Mat& gray, const BoardSpec& board) {
@@ -130,7 +149,7 @@ Detection detect_board(const cv::Mat& image, const BoardSpec& board, Detector de
     d.problem = str("no ", board.cols, "x", board.rows, " board found");
     return d;
   }
-  refine_corners(gray, board, d);
+  refine_corners(image, gray, board, d);
   d.smallest_square_px = smallest_square(d.corners, board);
   if (std::string why = degeneracy(d.corners, board, gray.size()); !why.empty()) {
     d.found = false;

@@ -13,7 +13,8 @@ enum class Detector {
   automatic,     // sector-based first, the classic detector when it finds nothing
   sector_based,  // cv::findChessboardCornersSB
   classic,       // cv::findChessboardCorners
-  // Either way the corners are then refined with cv::cornerSubPix in a window fitted to the view.
+  // Either way the corners are then refined with cv::cornerSubPix in a window fitted to the view and
+  // by fitting an X-junction model to the full-depth image (corner_fit.h).
 };
 Detector detector_from_string(const std::string& name);  // "auto", "sb", "classic"; UsageError otherwise
 std::string to_string(Detector detector);
@@ -42,6 +43,9 @@ double smallest_square(const std::vector<cv::Point2f>& corners, const BoardSpec&
 // Why these corners make a degenerate view (empty when they are fine): a board that covers almost
 // nothing, squares too small to locate, a board seen edge-on, or a folded grid.
 std::string degeneracy(const std::vector<cv::Point2f>& corners, const BoardSpec& board, cv::Size image_size);
+
+// Single-channel float copy in [0, 1] (8/16-bit scaled, float data as it is).
+cv::Mat to_gray_float(const cv::Mat& image);
 
 // 8-bit single-channel copy of any image read_image returns (float data is taken as [0, 1]).
 cv::Mat to_gray8(const cv::Mat& image);

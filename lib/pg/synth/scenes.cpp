@@ -105,6 +105,88 @@ Scene make_set_scene(const SceneOptions& o) {
   return scene;
 }
 
+namespace {
+
+// Where a calibration view puts the board: its centre towards (u, v) (fractions of the half-frame,
+// pushed as far out as the board fits), tilted about the board's x and y axes, rolled about the optical
+// axis, its inner corners spanning about `span` of the image width.
+struct BoardPlacement {
+  double u, v, tilt_x, tilt_y, roll, span;
+};
+
+// Informative views first, so a few views (--views) still cover the frame: a tilted centre view, the
+// four corners, the four edges, then the corners again at other tilts and sizes, then close views.
+// Every board is rolled a little: edges aligned with the pixel grid would all fall at the same phase of
+// the supersampling grid, which moves them in steps of 1 / supersample px.
+std::vector<BoardPlacement> calibration_placements() {
+  return {{0, 0, 0.6, 0, 0.15, 0.6},       {-1, -1, 0.5, -0.5, 0.12, 0.45}, {1, -1, -0.5, -0.5, -0.12, 0.45},
+          {1, 1, -0.5, 0.5, 0.12, 0.45},   {-1, 1, 0.5, 0.5, -0.12, 0.45},  {0, -1, -0.7, 0, 0.15, 0.55},
+          {1, 0, 0, 0.7, -0.15, 0.5},      {0, 1, 0.7, 0, 0.15, 0.55},      {-1, 0, 0, -0.7, -0.15, 0.5},
+          {-1, -1, -0.3, 0.6, -0.2, 0.35}, {1, -1, 0.6, 0.3, 0.2, 0.35},    {1, 1, 0.3, -0.6, -0.2, 0.35},
+          {-1, 1, -0.6, -0.3, 0.2, 0.35},  {0, 0, 0, 0.75, 0.15, 0.8},      {0, 0, -0.3, 0.3, -0.25, 0.95}};
+}
+
+// cam_from_board for one placement: the board (with its white margin) inside the frame by a few
+// pixels, its centre as far towards the placement's target as that allows, moved further away when it
+// does not fit at all. Deterministic: bisection with a fixed number of steps.
+Rigid3 place_board(const Camera& lens, int inner_x, int inner_y, double square, const BoardPlacement& p) {
+  const Eigen::Vector2d image_centre((lens.width - 1) / 2.0, (lens.height - 1) / 2.0);
+  const Eigen::Vector2d half(lens.width / 2.0, lens.height / 2.0);
+  const auto ray_to = [&](double reach) {
+    return lens.unproject(image_centre + reach * Eigen::Vector2d(p.u * half.x(), p.v * half.y()));
+  };
+  // Tilt relative to the line of sight: off-axis views (a fisheye's frame edge) are oblique already, so
+  // the tilt is eased until the board is seen at most 55 degrees from face-on (detectors fail beyond).
+  Eigen::Matrix3d rotation;
+  for (double ease = 1;; ease *= 0.8) {
+    rotation = (Eigen::AngleAxisd(p.roll, Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(ease * p.tilt_x, Eigen::Vector3d::UnitX()) *
+                Eigen::AngleAxisd(ease * p.tilt_y, Eigen::Vector3d::UnitY()))
+                   .toRotationMatrix();
+    if (rotation.col(2).dot(ray_to(1)) >= std::cos(55 * std::numbers::pi / 180) || ease < 0.05) break;
+  }
+  // The checker area plus half a square of its white margin (the detectors need that much quiet zone),
+  // sampled along its edges (distortion bends them).
+  std::vector<Eigen::Vector3d> outline;
+  const double x0 = -1.5 * square, y0 = -1.5 * square, x1 = (inner_x + 0.5) * square,
+               y1 = (inner_y + 0.5) * square;
+  for (int k = 0; k <= 8; ++k) {
+    const double t = k / 8.0;
+    outline.emplace_back(x0 + t * (x1 - x0), y0, 0);
+    outline.emplace_back(x0 + t * (x1 - x0), y1, 0);
+    outline.emplace_back(x0, y0 + t * (y1 - y0), 0);
+    outline.emplace_back(x1, y0 + t * (y1 - y0), 0);
+  }
+  const Eigen::Vector3d centre((inner_x - 1) * square / 2, (inner_y - 1) * square / 2, 0);
+  const auto placed = [&](double distance, double reach) {
+    const Eigen::Vector3d ray = ray_to(reach);
+    Rigid3 pose;
+    pose.rotation = Eigen::Quaterniond(rotation);
+    pose.translation = distance / ray.z() * ray - rotation * centre;
+    return pose;
+  };
+  const auto fits = [&](const Rigid3& pose) {
+    Camera c = lens;
+    c.cam_from_world = pose;
+    for (const Eigen::Vector3d& q : outline) {
+      Eigen::Vector2d px;
+      if (!c.project_world(q, px) || !c.in_image(px, 3)) return false;
+    }
+    return true;
+  };
+  double distance = lens.intrinsics.fx * (inner_x - 1) * square / (p.span * lens.width);
+  for (int k = 0; k < 100 && !fits(placed(distance, 0)); ++k) distance *= 1.1;
+  double inside = 0, outside = 1;
+  if (fits(placed(distance, 1))) return placed(distance, 1);
+  for (int step = 0; step < 20; ++step) {
+    const double mid = 0.5 * (inside + outside);
+    (fits(placed(distance, mid)) ? inside : outside) = mid;
+  }
+  return placed(distance, inside);
+}
+
+}  // namespace
+
 Scene make_checkerboard_scene(const SceneOptions& o) {
   const int inner_x = 9, inner_y = 6;
   const double square = 0.025;
@@ -144,27 +226,20 @@ Scene make_checkerboard_scene(const SceneOptions& o) {
     lens.distortion.k3 = -0.012;
   }
 
-  int views = o.views > 0 ? o.views : 15;
-  Eigen::Vector3d board_centre((inner_x - 1) * square / 2, (inner_y - 1) * square / 2, 0);
+  // A calibration set pins the distortion and the principal point only where corners are seen: the
+  // boards fill the frame's corners and edges, strongly tilted, as a careful photographer would shoot.
+  const int views = o.views > 0 ? o.views : 15;
+  const std::vector<BoardPlacement> placements = calibration_placements();
   for (int i = 0; i < views; ++i) {
-    // Spread the board over the frame: vary where the camera looks, its distance and tilt.
-    double a = 2 * std::numbers::pi * i / views;
-    double distance = 0.42 + 0.12 * std::sin(1.7 * i) + 0.02 * jitter(o.seed, i, 0);
-    double tilt = 0.45 * std::sin(a) + 0.05 * jitter(o.seed, i, 1), pan = 0.45 * std::cos(a);
-    Eigen::Vector3d dir(std::sin(pan) * std::cos(tilt), std::sin(tilt), -std::cos(pan) * std::cos(tilt));
-    Eigen::Vector3d centre = board_centre + distance * dir;
-    Eigen::Vector3d aim =
-        board_centre + Eigen::Vector3d(0.06 * std::cos(2.3 * i), 0.04 * std::sin(1.9 * i), 0);
+    BoardPlacement p = placements[std::size_t(i) % placements.size()];
+    const int round = i / int(placements.size());  // more views than placements: vary roll and tilt
+    p.roll += 0.3 * round + 0.04 * jitter(o.seed, i, 0);
+    p.tilt_x += 0.05 * jitter(o.seed, i, 1) - 0.1 * round;
+    p.tilt_y += 0.05 * jitter(o.seed, i, 2);
     Camera c = lens;
     c.id = view_id(i);
     c.image = "images/" + c.id + ".png";
-    // Board y points down the board: use -y as "up" so the board appears upright.
-    c.cam_from_world = Rigid3::look_at(centre, aim, Eigen::Vector3d(0, -1, 0));
-    // Roll a little about the optical axis, differently per view.
-    double roll = 0.25 * std::sin(0.9 * i + 0.3);
-    c.cam_from_world = Rigid3{Eigen::Quaterniond(Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ())),
-                              Eigen::Vector3d::Zero()} *
-                       c.cam_from_world;
+    c.cam_from_world = place_board(c, inner_x, inner_y, square, p);  // the world is the board's frame
     scene.cameras.cameras.push_back(c);
   }
   scene.board = Scene::Board{inner_x, inner_y, square};

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "pg/camera/cameras_io.h"
+#include "pg/core/error.h"
 #include "pg/core/json_file.h"
 #include "pg/core/log.h"
 #include "pg/core/progress.h"
@@ -120,6 +121,18 @@ RenderedView ViewRenderer::render(const Camera& camera) {
   return view;
 }
 
+ImageEncoding image_encoding_from_string(const std::string& name) {
+  if (name == "srgb8") return ImageEncoding::srgb8;
+  if (name == "linear16") return ImageEncoding::linear16;
+  throw UsageError("unknown image encoding \"" + name + "\" (expected srgb8 or linear16)");
+}
+
+cv::Mat to_linear16(const cv::Mat& linear) {
+  cv::Mat out;
+  linear.convertTo(out, CV_16UC3, 65535.0);  // saturating, rounded to nearest
+  return out;
+}
+
 cv::Mat to_srgb8(const cv::Mat& linear) {
   cv::Mat out(linear.rows, linear.cols, CV_8UC3);
   std::array<std::uint8_t, 4096> table;
@@ -152,7 +165,8 @@ void write_scene(const Scene& scene, const fs::path& folder, const WriteOptions&
     for (const Camera& camera : cameras.cameras) {
       RenderedView view = renderer.render(camera);
       fs::path image_path = folder / camera.image;
-      write_image(image_path, to_srgb8(view.color));
+      write_image(image_path, options.encoding == ImageEncoding::linear16 ? to_linear16(view.color)
+                                                                          : to_srgb8(view.color));
       record(image_path);
       if (options.write_depth) {
         DepthMap depth;

@@ -1,10 +1,12 @@
 #pragma once
 // Renders a synthetic scene's views and writes everything with its ground truth:
-//   cameras.json, images/<id>.png, depth/<id>.exr, mesh.ply (truth, vertex colours), initial.ply
-//   (deform scene), scene.json (format "pg-synth-scene": name, seed, scene facts, files).
+//   cameras.json, images/<id>.png (8-bit sRGB or 16-bit linear), depth/<id>.exr, mesh.ply (truth, vertex
+//   colours), initial.ply (deform scene), scene.json (format "pg-synth-scene": name, seed, scene facts,
+//   files).
 // One view at a time is held in memory.
 #include <filesystem>
 #include <opencv2/core.hpp>
+#include <string>
 
 #include "pg/camera/camera.h"
 #include "pg/render/rasterizer.h"
@@ -12,8 +14,17 @@
 
 namespace pg::synth {
 
+// How images/<id>.png store the anti-aliased linear render.
+enum class ImageEncoding {
+  srgb8,     // 8-bit sRGB, as a camera's JPEG
+  linear16,  // 16-bit linear light: the box filter's pixel values as they are, for measurements (a
+             // corner detector's sub-pixel fit models a pixel as the mean light over its area)
+};
+ImageEncoding image_encoding_from_string(const std::string& name);  // "srgb8", "linear16"; UsageError
+
 struct WriteOptions {
   int supersample = 3;  // samples per pixel side (box filter over the pixel's area)
+  ImageEncoding encoding = ImageEncoding::srgb8;
   bool write_depth = true;
 };
 
@@ -43,6 +54,8 @@ class ViewRenderer {
 
 // Linear [0,1] float BGR -> 8-bit sRGB-encoded BGR.
 cv::Mat to_srgb8(const cv::Mat& linear);
+// Linear [0,1] float BGR -> 16-bit linear BGR (0..65535, rounded).
+cv::Mat to_linear16(const cv::Mat& linear);
 
 void write_scene(const Scene& scene, const std::filesystem::path& folder, const WriteOptions& options);
 
