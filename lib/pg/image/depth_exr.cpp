@@ -176,11 +176,7 @@ DepthMap read_depth_exr(const fs::path& path) {
     throw InputError(path, str(attr_kind, " is '", kind, "', expected perspective_z or spherical_range"));
   }
   map.camera = camera_from_json(parse_json_attribute(path, header, attr_camera), path, attr_camera);
-  try {
-    map.provenance = provenance_from_json(parse_json_attribute(path, header, attr_provenance));
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(path, str(attr_provenance, " has a field of the wrong type: ", e.what()));
-  }
+  map.provenance = provenance_from_json(parse_json_attribute(path, header, attr_provenance));
   const Imath::Box2i window = header.dataWindow();
   const cv::Size size(window.max.x - window.min.x + 1, window.max.y - window.min.y + 1);
   if (map.camera.width != size.width || map.camera.height != size.height)

@@ -263,9 +263,11 @@ TEST(DepthExr, RejectsFilesThatDoNotFollowTheFormat) {
                   "pg/depthKind is 'disparity'");
   expect_rejected(variant("provenance.exr", [](RawExr& r) { r.strings["pg/provenance"] = "[1, 2]"; }),
                   "pg/provenance is not a JSON object");
-  expect_rejected(
-      variant("provenance-type.exr", [](RawExr& r) { r.strings["pg/provenance"] = R"({"tool": 5})"; }),
-      "pg/provenance has a field of the wrong type");
+  // Provenance is informational: a field of the wrong type is skipped, not a reason to refuse the depth.
+  EXPECT_EQ(read_depth_exr(variant("provenance-type.exr", [](RawExr& r) {
+              r.strings["pg/provenance"] = R"({"tool": 5, "version": "1"})";
+            })).provenance.version,
+            "1");
   expect_rejected(variant("equirect.exr",
                           [](RawExr& r) {
                             Camera camera = test_camera();

@@ -190,7 +190,7 @@ void write_scene(const Scene& scene, const fs::path& folder, const WriteOptions&
     record(folder / "initial.ply");
   }
   // cameras.json last: a Make rule that depends on it sees a complete scene folder.
-  nlohmann::json manifest = {{"format", "pg-synth-scene"},
+  nlohmann::ordered_json manifest = {{"format", "pg-synth-scene"},
                              {"version", 1},
                              {"provenance", to_json(Provenance::current())},
                              {"scene", scene.name},

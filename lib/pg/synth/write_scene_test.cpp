@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "pg/camera/cameras_io.h"
+#include "pg/core/json_file.h"
 #include "pg/image/depth_exr.h"
 #include "pg/image/image_io.h"
 #include "pg/mesh/bvh.h"
@@ -11,6 +12,13 @@
 namespace fs = std::filesystem;
 
 namespace {
+pg::synth::WriteOptions one_sample(bool depth) {
+  pg::synth::WriteOptions options;
+  options.supersample = 1;
+  options.write_depth = depth;
+  return options;
+}
+
 // Every valid depth pixel, lifted to 3-D with the file's own camera, lies on the true mesh.
 void expect_depth_on_mesh(const fs::path& folder, double tolerance_relative) {
   auto cameras = pg::read_cameras(folder / "cameras.json");
@@ -45,7 +53,7 @@ TEST(WriteScene, SetDepthMapsLieOnTheTrueMesh) {
   o.width = 160;
   o.height = 120;
   o.views = 3;
-  pg::synth::write_scene(pg::synth::make_set_scene(o), dir.path(), {.supersample = 1, .write_depth = true});
+  pg::synth::write_scene(pg::synth::make_set_scene(o), dir.path(), one_sample(true));
   expect_depth_on_mesh(dir.path(), 1e-4);
   cv::Mat image = pg::read_image(dir / "images/view_000.png");
   EXPECT_EQ(image.cols, 160);
@@ -56,7 +64,7 @@ TEST(WriteScene, PanoramaRangeMapsLieOnTheTrueMesh) {
   pg::testing::TempDir dir;
   pg::synth::SceneOptions o;
   o.height = 64;
-  pg::synth::write_scene(pg::synth::make_room_scene(o), dir.path(), {.supersample = 1, .write_depth = true});
+  pg::synth::write_scene(pg::synth::make_room_scene(o), dir.path(), one_sample(true));
   expect_depth_on_mesh(dir.path(), 1e-4);
   auto depth = pg::read_depth_exr(dir / "depth/pano_lower.exr");
   EXPECT_EQ(depth.kind, pg::DepthKind::spherical_range);
@@ -74,4 +82,20 @@ TEST(WriteScene, ScaledCameraKeepsPixelCentres) {
   // The centre of original pixel (u, v) is the centre of the 4x4 block starting at 4u.
   Eigen::Vector3d a = c.unproject({2, 3}), b = s.unproject({4 * 2 + 1.5, 4 * 3 + 1.5});
   EXPECT_NEAR((a - b).norm(), 0, 1e-12);
+}
+
+TEST(WriteScene, ManifestStartsWithFormatVersionAndProvenance) {
+  pg::testing::TempDir dir;
+  pg::synth::SceneOptions o;
+  o.width = 64;
+  o.height = 48;
+  o.views = 1;
+  pg::synth::write_scene(pg::synth::make_checkerboard_scene(o), dir.path(), one_sample(false));
+  auto doc = pg::read_json_file(dir / "scene.json");
+  EXPECT_EQ(pg::check_format_header(doc, dir / "scene.json", "pg-synth-scene", 1), 1);
+  EXPECT_EQ(doc["extras"]["inner_corners"][0], 9);
+  const std::string text = pg::testing::read_text(dir / "scene.json");
+  EXPECT_LT(text.find("\"format\""), text.find("\"version\""));
+  EXPECT_LT(text.find("\"version\""), text.find("\"provenance\""));
+  EXPECT_LT(text.find("\"provenance\""), text.find("\"scene\""));
 }
