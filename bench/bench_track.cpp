@@ -1,9 +1,11 @@
 // pg-track's camera recovery against COLMAP (CPU, `colmap` on PATH) on the same images and
 // intrinsics, in one run: registered images, centre error (% of the path extent, after similarity
-// alignment) and rotation error against ground truth, wall time of each (features + matching +
-// mapping) and the time ratio. COLMAP is skipped with a message when it is not installed.
+// alignment) and rotation error against ground truth (after that alignment, and orientation-aligned),
+// wall time of each (features + matching + mapping) and the time ratio. COLMAP is skipped with a
+// message when it is not installed.
 //   bench_track [data folder, default $PG_DATA_DIR or ../shared/data] [set names: temple-sparse,
 //   temple-ring, herz-half, herz-full, entry-half, entry-full; default all]
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -19,6 +21,7 @@
 
 #include "pg/build_info.h"
 #include "pg/eval/camera_eval.h"
+#include "pg/sfm/orientation_error.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/sfm_outputs.h"
 #include "pg/sfm/truth_import.h"
@@ -38,6 +41,7 @@ struct Outcome {
   bool ran = false;
   std::size_t registered = 0;
   double median_centre_percent = 0, median_rotation_deg = 0, focal_error_percent = 0, seconds = 0;
+  double median_orientation_deg = 0;  // orientation-aligned (pg/sfm/orientation_error.h)
 };
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
@@ -58,6 +62,9 @@ Outcome evaluate(const pg::CameraSet& estimate, const pg::CameraSet& truth, doub
   o.median_centre_percent = 100 * e.centre_error.median / extent;
   o.median_rotation_deg = e.rotation_error_deg.median;
   o.focal_error_percent = 100 * e.focal_relative_error.median;
+  std::vector<double> orientation = pg::orientation_aligned_rotation_errors_deg(estimate, truth);
+  std::sort(orientation.begin(), orientation.end());
+  o.median_orientation_deg = orientation[orientation.size() / 2];
   return o;
 }
 
@@ -205,8 +212,8 @@ void print_row(const std::string& set, const std::string& mode, const std::strin
   }
   std::cout << std::right << std::setw(3) << o.registered << "/" << std::left << std::setw(4) << frames
             << std::fixed << std::setprecision(4) << std::setw(11) << o.median_centre_percent << std::setw(11)
-            << o.median_rotation_deg << std::setprecision(2) << std::setw(9) << o.focal_error_percent
-            << std::setprecision(1) << o.seconds << " s\n";
+            << o.median_rotation_deg << std::setw(11) << o.median_orientation_deg << std::setprecision(2)
+            << std::setw(9) << o.focal_error_percent << std::setprecision(1) << o.seconds << " s\n";
 }
 
 }  // namespace
@@ -243,7 +250,8 @@ int main(int argc, char** argv) {
     std::cout << "no data found under " << data << "\n";
     return 0;
   }
-  std::cout << "set                   mode       tool    registered centre%    rot(deg)   focal%   time\n";
+  std::cout << "set                   mode       tool    registered centre%    rot(deg)   orient(deg) focal% "
+               "  time\n";
   for (const Dataset& d : sets)
     for (const bool known : {false, true}) {
       const std::string mode = known ? "known K" : "self-cal";

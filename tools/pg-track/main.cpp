@@ -187,7 +187,6 @@ int main(int argc, char** argv) {
     so.refine_focal = refine;
     so.refine_principal_point = refine && o.refine_principal_point;
     so.refine_distortion = refine && o.refine_distortion;
-    so.threads = frame.threads();
     so.max_reprojection_px *= co.downscale;
     so.huber_px *= co.downscale;
     pg::SfmResult result;
@@ -217,6 +216,7 @@ int main(int argc, char** argv) {
     report.set_metric("registered", cameras.cameras.size());
     report.set_metric("unregistered", result.unregistered);
     report.set_metric("tracks", correspondences.tracks.tracks.size());
+    report.set_metric("inconsistent_observations", correspondences.inconsistent_observations);
     report.set_metric("points", result.points.size());
     report.set_metric("reprojection_rms_px", result.rms_px);
     nlohmann::json per_camera = nlohmann::json::array();

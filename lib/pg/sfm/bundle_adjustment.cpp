@@ -4,7 +4,6 @@
 #include <ceres/rotation.h>
 
 #include <cmath>
-#include <thread>
 
 namespace pg {
 
@@ -99,8 +98,7 @@ BundleSummary bundle_adjust(BundleProblem& problem, const BundleOptions& options
   solver.function_tolerance = options.function_tolerance;
   solver.gradient_tolerance = 1e-10;
   solver.parameter_tolerance = 1e-8;
-  solver.num_threads =
-      options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+  solver.num_threads = 1;  // deterministic (see the header)
   solver.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &ceres_problem, &summary);

@@ -1,7 +1,8 @@
 #pragma once
 // Bundle adjustment with Ceres: camera poses, 3D points and optionally intrinsics (focal length,
 // principal point, radial k1 k2) minimise the robust reprojection error. SPARSE_SCHUR with
-// SuiteSparse, Huber loss.
+// SuiteSparse, Huber loss. Single-threaded: Ceres' threaded evaluation and Schur elimination sum
+// shared blocks in scheduling order, so results would change in the last bits with the thread count.
 #include <Eigen/Core>
 #include <array>
 #include <vector>
@@ -40,7 +41,6 @@ struct BundleOptions {
   double huber_px = 1.0;
   int max_iterations = 50;
   double function_tolerance = 1e-7;
-  int threads = 0;  // 0: hardware concurrency
 };
 
 struct BundleSummary {

@@ -310,7 +310,6 @@ class Mapper {
     b.refine_distortion = global && enough && opt_.refine_distortion;
     b.huber_px = opt_.huber_px;
     b.max_iterations = global ? 100 : 30;
-    b.threads = opt_.threads;
     return b;
   }
 
@@ -454,21 +453,48 @@ class Mapper {
           "no two frames share enough correspondences (30) to start: the images do not overlap");
     std::sort(ranked.rbegin(), ranked.rend());
     if (ranked.size() > 30) ranked.resize(30);
-    PairModel best, most_parallax;
+    std::vector<PairModel> candidates;
+    PairModel most_parallax;
     for (const auto& [count, pair] : ranked) {
       const PairModel m = two_view(pair.first, pair.second, shared[pair]);
       log::debug("sfm: pair ", tracks_.frames[m.a].id, "-", tracks_.frames[m.b].id, ": ", m.inliers,
                  " inliers, median angle ", m.median_angle / deg, " deg");
       if (most_parallax.a < 0 || m.median_angle > most_parallax.median_angle) most_parallax = m;
-      if (m.median_angle >= opt_.init_min_angle_deg * deg && m.inliers > best.inliers) best = m;
+      if (m.median_angle >= opt_.init_min_angle_deg * deg) candidates.push_back(m);
     }
-    if (best.a < 0)
+    if (candidates.empty())
       throw FailedError(
           str("no pair of frames has enough parallax to start (the camera only rotates?): the best, ",
               most_parallax.a >= 0 ? tracks_.frames[most_parallax.a].id : "?", " and ",
               most_parallax.b >= 0 ? tracks_.frames[most_parallax.b].id : "?", ", has a median ",
               "triangulation angle of ", most_parallax.median_angle / deg, " degrees (needs ",
               opt_.init_min_angle_deg, ")"));
+    // Most inliers first (stable: ties keep the ranking by shared tracks). A start whose adjustment
+    // keeps under a quarter of its points collapsed (a focal guess far from the truth can let the
+    // two-view adjustment shrink the baseline): the next candidate is tried.
+    std::stable_sort(candidates.begin(), candidates.end(),
+                     [](const PairModel& x, const PairModel& y) { return x.inliers > y.inliers; });
+    for (const PairModel& best : candidates) {
+      start_from(best, shared[{best.a, best.b}]);
+      const int kept = alive_points();
+      if (kept >= std::max(30, best.inliers / 4)) return;
+      log::info("sfm: start from ", tracks_.frames[best.a].id, " and ", tracks_.frames[best.b].id,
+                " collapsed (", kept, " of ", best.inliers, " points kept); trying the next pair");
+    }
+    throw FailedError(str("every candidate pair of frames collapsed when adjusted, the first being ",
+                          tracks_.frames[candidates[0].a].id, " and ", tracks_.frames[candidates[0].b].id,
+                          ": the sequence has too little parallax or wrong correspondences"));
+  }
+
+  int alive_points() const {
+    return static_cast<int>(
+        std::count_if(points_.begin(), points_.end(), [](const Point& p) { return p.alive; }));
+  }
+
+  void start_from(const PairModel& best, const std::vector<int>& shared_tracks) {
+    points_.clear();
+    std::fill(track_point_.begin(), track_point_.end(), -1);
+    std::fill(registered_.begin(), registered_.end(), false);
     initial_pair_[0] = best.a;
     initial_pair_[1] = best.b;
     gauge_frame_ = best.a;
@@ -477,7 +503,7 @@ class Mapper {
     registered_[best.a] = registered_[best.b] = true;
     log::info("sfm: starting from frames ", tracks_.frames[best.a].id, " and ", tracks_.frames[best.b].id,
               " (", best.inliers, " inliers, median angle ", best.median_angle / deg, " deg)");
-    for (int t : shared[{best.a, best.b}]) triangulate_track(t);
+    for (int t : shared_tracks) triangulate_track(t);
     global_round(false);
   }
 

@@ -5,9 +5,11 @@
 // Herz-Jesus-P8 at 1536x1024 self-calibrated 0.051% median; with true intrinsics 0.018% and 0.04 deg.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <iostream>
 
 #include "pg/eval/camera_eval.h"
+#include "pg/sfm/orientation_error.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/truth_import.h"
 #include "pg/testing/testing.h"
@@ -19,7 +21,8 @@ namespace {
 struct Measured {
   std::size_t registered = 0, frames = 0;
   double median_centre_percent = 0, max_centre_percent = 0;
-  double median_rotation_deg = 0, max_rotation_deg = 0;
+  double median_rotation_deg = 0, max_rotation_deg = 0;        // after the centre similarity
+  double median_orientation_deg = 0, max_orientation_deg = 0;  // orientation-aligned (gauge-free)
   double focal_error_percent = 0;
 };
 
@@ -69,24 +72,33 @@ Measured track_and_evaluate(const std::string& name, const std::filesystem::path
   m.median_rotation_deg = eval.rotation_error_deg.median;
   m.max_rotation_deg = eval.rotation_error_deg.max;
   m.focal_error_percent = 100 * eval.focal_relative_error.max;
+  std::vector<double> orientation = orientation_aligned_rotation_errors_deg(estimate, truth);
+  std::sort(orientation.begin(), orientation.end());
+  m.median_orientation_deg = orientation[orientation.size() / 2];
+  m.max_orientation_deg = orientation.back();
   std::cout << "[ measured ] " << name << (known_intrinsics ? " (true intrinsics)" : " (self-calibrated)")
             << ": registered " << m.registered << "/" << m.frames << ", centre error median "
             << m.median_centre_percent << "% max " << m.max_centre_percent
             << "% of the path extent, rotation median " << m.median_rotation_deg << " deg max "
-            << m.max_rotation_deg << " deg, focal error " << m.focal_error_percent << "%, reprojection RMS "
-            << result.rms_px << " px, " << correspondences.tracks.tracks.size() << " tracks\n";
+            << m.max_rotation_deg << " deg (orientation-aligned median " << m.median_orientation_deg
+            << " max " << m.max_orientation_deg << "), focal error " << m.focal_error_percent
+            << "%, reprojection RMS " << result.rms_px << " px, " << correspondences.tracks.tracks.size()
+            << " tracks\n";
   return m;
 }
+
+// COLMAP's numbers below marked "measured" come from bench_track on these very images and the same
+// evaluation (exhaustive matching, CPU, same intrinsics mode); the others are issue 5's references.
 
 TEST(SfmReal, TempleSparseRingSelfCalibratedRegistersEveryFrame) {
   PG_REQUIRE_REAL_DATA(folder, "multiview/templeSparseRing");
   const CameraSet truth = import_middlebury_par(folder / "templeSR_par.txt");
   const Measured m = track_and_evaluate("templeSparseRing", folder, truth, false, 1.0);
-  EXPECT_EQ(m.registered, 16u);  // COLMAP: 13/16
-  EXPECT_LT(m.median_centre_percent, 0.13);
+  EXPECT_EQ(m.registered, 16u);              // COLMAP: 13/16
+  EXPECT_LT(m.median_centre_percent, 0.13);  // COLMAP: 0.13% (issue), 0.1405% measured on its 13
   // Self-calibration keeps the principal point at the image centre, 17 px from the true one
-  // (302.3, 246.9): every rotation carries about 0.65 degrees of that.
-  EXPECT_LT(m.median_rotation_deg, 1.0);
+  // (302.3, 246.9): every rotation carries most of a degree of that. COLMAP measured: 0.888 deg.
+  EXPECT_LT(m.median_rotation_deg, 0.888);
   EXPECT_LT(m.focal_error_percent, 2.0);
 }
 
@@ -94,9 +106,9 @@ TEST(SfmReal, TempleSparseRingKnownIntrinsics) {
   PG_REQUIRE_REAL_DATA(folder, "multiview/templeSparseRing");
   const CameraSet truth = import_middlebury_par(folder / "templeSR_par.txt");
   const Measured m = track_and_evaluate("templeSparseRing", folder, truth, true, 1.0);
-  EXPECT_EQ(m.registered, 16u);
-  EXPECT_LT(m.median_centre_percent, 0.2);
-  EXPECT_LT(m.median_rotation_deg, 0.3);
+  EXPECT_EQ(m.registered, 16u);                // COLMAP: 13/16
+  EXPECT_LT(m.median_centre_percent, 0.1345);  // COLMAP measured
+  EXPECT_LT(m.median_rotation_deg, 0.397);     // COLMAP measured
 }
 
 TEST(SfmReal, HerzJesusP8HalfResolutionSelfCalibrated) {
@@ -104,7 +116,7 @@ TEST(SfmReal, HerzJesusP8HalfResolutionSelfCalibrated) {
   const CameraSet truth = import_strecha_cameras(folder / "gt_dense_cameras", "images");
   const Measured m = track_and_evaluate("Herz-Jesus-P8 1536x1024", folder, truth, false, 2.0);
   EXPECT_EQ(m.registered, 8u);
-  EXPECT_LT(m.median_centre_percent, 0.051);
+  EXPECT_LT(m.median_centre_percent, 0.051);  // COLMAP: 0.051% (issue), 0.0509% measured
   EXPECT_LT(m.focal_error_percent, 0.5);
 }
 
@@ -113,10 +125,40 @@ TEST(SfmReal, HerzJesusP8HalfResolutionKnownIntrinsics) {
   const CameraSet truth = import_strecha_cameras(folder / "gt_dense_cameras", "images");
   const Measured m = track_and_evaluate("Herz-Jesus-P8 1536x1024", folder, truth, true, 2.0);
   EXPECT_EQ(m.registered, 8u);
-  // Measured 0.018-0.020% and 0.08-0.09 degrees; COLMAP's 0.018% / 0.04 degrees with true intrinsics
-  // was on "a Strecha set" (issue 5); bench_track compares both on these very images.
-  EXPECT_LT(m.median_centre_percent, 0.025);
-  EXPECT_LT(m.median_rotation_deg, 0.12);
+  // COLMAP measured 0.0199% here (printed to 4 digits; the issue's 0.018% was "a Strecha set");
+  // neither tool goes below about 0.019% on this set whatever the features, error bound or principal
+  // point: the ground truth's own error (millimetres) is the floor, and pg measures 0.0188-0.0200%
+  // depending on how the images were halved. Held at COLMAP's value rounded up to 3 digits.
+  EXPECT_LT(m.median_centre_percent, 0.020);
+  // The centres lie on a shallow arc, so the centre similarity tilts every rotation by about 0.12 deg
+  // (COLMAP measured 0.1275 deg that way); orientation accuracy proper is the orientation-aligned
+  // error, held to the issue's 0.04 deg.
+  EXPECT_LT(m.median_rotation_deg, 0.1275);
+  EXPECT_LT(m.median_orientation_deg, 0.04);
+}
+
+// 47 views; the best-connected starting pair (templeR0002, templeR0031) collapses when adjusted from
+// the default focal guess and the next one is taken. About 35 s of CPU.
+TEST(SfmReal, TempleRingSelfCalibrated) {
+  PG_REQUIRE_REAL_DATA(folder, "multiview/templeRing");
+  const CameraSet truth = import_middlebury_par(folder / "templeR_par.txt");
+  const Measured m = track_and_evaluate("templeRing", folder, truth, false, 1.0);
+  EXPECT_EQ(m.registered, 47u);                // COLMAP measured: 47/47
+  EXPECT_LT(m.median_centre_percent, 0.0982);  // COLMAP measured
+  // No rotation check: the ground truth's camera frames are turned 180 degrees about the optical axis
+  // from these images' (relative rotations agree in angle, not in axis; centres are unaffected), so
+  // both tools show about 90 degrees of rotation error.
+  EXPECT_LT(m.focal_error_percent, 2.14);  // COLMAP measured
+}
+
+// No COLMAP number on this set yet (bench_track entry-half measures it); pg measured 0.0200% centre
+// error and 0.023 deg orientation-aligned, 29 s of CPU.
+TEST(SfmReal, EntryP10HalfResolutionKnownIntrinsics) {
+  PG_REQUIRE_REAL_DATA(folder, "multiview/strecha/entry-P10");
+  const CameraSet truth = import_strecha_cameras(folder / "gt_dense_cameras", "images");
+  const Measured m = track_and_evaluate("entry-P10 1536x1024", folder, truth, true, 2.0);
+  EXPECT_EQ(m.registered, 10u);
+  EXPECT_LT(m.median_orientation_deg, 0.04);
 }
 
 }  // namespace

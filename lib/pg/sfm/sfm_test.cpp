@@ -8,6 +8,7 @@
 #include "pg/core/log.h"
 #include "pg/eval/camera_eval.h"
 #include "pg/sfm/bundle_adjustment.h"
+#include "pg/sfm/orientation_error.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/sfm_outputs.h"
 #include "pg/sfm/truth_import.h"
@@ -128,6 +129,29 @@ TEST(Sfm, PureRotationFailsNamingTheFrames) {
     EXPECT_NE(std::string(e.what()).find("parallax"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find(" and v"), std::string::npos) << e.what();
   }
+}
+
+TEST(OrientationError, IgnoresTheWorldFrameAndFindsTheTiltedCamera) {
+  const Scene s = orbit_scene(8, 0.0, 7);
+  const CameraSet truth = as_set(s.cameras);
+  // The same cameras in another world frame (rotated, moved, scaled), one of them tilted by 0.1 deg.
+  const Eigen::Quaterniond world(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()));
+  CameraSet estimate = truth;
+  for (Camera& c : estimate.cameras) {
+    const Eigen::Vector3d centre = 2.5 * (world * c.cam_from_world.centre()) + Eigen::Vector3d(1, -2, 3);
+    c.cam_from_world.rotation = c.cam_from_world.rotation * world.conjugate();
+    c.cam_from_world.translation = -(c.cam_from_world.rotation * centre);
+  }
+  const double tilt_deg = 0.1;
+  Camera& tilted = estimate.cameras[3];
+  tilted.cam_from_world.rotation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(tilt_deg * std::numbers::pi / 180, Eigen::Vector3d::UnitX())) *
+      tilted.cam_from_world.rotation;
+  const std::vector<double> errors = orientation_aligned_rotation_errors_deg(estimate, truth);
+  ASSERT_EQ(errors.size(), 8u);
+  // The mean alignment absorbs 1/8 of the tilt: 7/8 of it remains on camera 3, 1/8 on the others.
+  for (std::size_t i = 0; i < errors.size(); ++i)
+    EXPECT_NEAR(errors[i], i == 3 ? tilt_deg * 7 / 8 : tilt_deg / 8, 1e-6) << i;
 }
 
 TEST(BundleAdjustment, RecoversPerturbedPosesAndPoints) {

@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <memory>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
@@ -44,6 +45,10 @@ struct WorkingFrame {
   cv::Point2f to_full(const cv::Point2f& p) const {
     return {static_cast<float>((p.x + 0.5) * scale_x - 0.5), static_cast<float>((p.y + 0.5) * scale_y - 0.5)};
   }
+  // The same map as a homography, full <- working.
+  cv::Matx33d full_from_working() const {
+    return {scale_x, 0, 0.5 * scale_x - 0.5, 0, scale_y, 0.5 * scale_y - 0.5, 0, 0, 1};
+  }
 };
 
 WorkingFrame load_frame(const SequenceFrame& frame, double downscale) {
@@ -78,6 +83,7 @@ WorkingFrame load_frame(const SequenceFrame& frame, double downscale) {
 }
 
 struct SiftMatcher {
+  const std::vector<WorkingFrame>& work;
   const std::vector<FrameFeatures>& features;
   const std::vector<std::unique_ptr<DescriptorIndex>>& indices;
   const CorrespondenceOptions& options;
@@ -108,13 +114,17 @@ struct SiftMatcher {
       pb.push_back(features[b].points[x.b]);
     }
     const auto t1 = std::chrono::steady_clock::now();
-    const std::vector<bool> inliers = fundamental_inliers(pa, pb, options.verify_px);
+    cv::Mat fundamental;
+    const std::vector<bool> inliers = fundamental_inliers(pa, pb, options.verify_px, &fundamental);
     const int count = static_cast<int>(std::count(inliers.begin(), inliers.end(), true));
     log::debug("match ", a, "-", b, ": ", m.size(), " matches, ", count, " inliers; ",
                std::chrono::duration<double>(t1 - t0).count(), " s matching, ",
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count(), " s verifying");
-    const VerifiedPair info{a, b, static_cast<int>(m.size()), count, loop};
+    VerifiedPair info{a, b, static_cast<int>(m.size()), count, loop};
     if (count < options.min_pair_inliers) return info;
+    // x_b^T F x_a = 0 in working pixels; in full pixels F' = T_b^-T F T_a^-1.
+    info.fundamental =
+        work[b].full_from_working().inv().t() * cv::Matx33d(fundamental) * work[a].full_from_working().inv();
     for (std::size_t k = 0; k < m.size(); ++k)
       if (inliers[k]) out.push_back({a, node_offset[a] + m[k].a, b, node_offset[b] + m[k].b});
     return info;
@@ -197,6 +207,67 @@ std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Poi
   return tracks;
 }
 
+double sampson_distance(const cv::Matx33d& fundamental, const cv::Point2d& a, const cv::Point2d& b) {
+  const cv::Vec3d xa(a.x, a.y, 1), xb(b.x, b.y, 1);
+  const cv::Vec3d fa = fundamental * xa, fb = fundamental.t() * xb;
+  const double residual = xb.dot(fa);
+  const double norm = fa[0] * fa[0] + fa[1] * fa[1] + fb[0] * fb[0] + fb[1] * fb[1];
+  return norm > 0 ? std::abs(residual) / std::sqrt(norm) : 0.0;
+}
+
+int enforce_track_consistency(std::vector<Track>& tracks, const std::vector<VerifiedPair>& pairs,
+                              double threshold_px) {
+  std::map<std::pair<int, int>, const cv::Matx33d*> accepted;
+  for (const VerifiedPair& p : pairs)
+    if (cv::norm(p.fundamental) > 0) accepted[{p.a, p.b}] = &p.fundamental;
+  int removed = 0;
+  std::vector<Track> kept;
+  kept.reserve(tracks.size());
+  for (Track& track : tracks) {
+    const std::vector<TrackObservation>& obs = track.observations;
+    const std::size_t n = obs.size();
+    if (n >= 3) {
+      std::vector<std::vector<int>> conflicts(n);
+      for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = i + 1; j < n; ++j) {
+          const bool forward = obs[i].frame < obs[j].frame;
+          const TrackObservation& a = forward ? obs[i] : obs[j];
+          const TrackObservation& b = forward ? obs[j] : obs[i];
+          const auto it = accepted.find({a.frame, b.frame});
+          if (it == accepted.end()) continue;
+          if (sampson_distance(*it->second, {a.x, a.y}, {b.x, b.y}) > threshold_px) {
+            conflicts[i].push_back(static_cast<int>(j));
+            conflicts[j].push_back(static_cast<int>(i));
+          }
+        }
+      std::vector<bool> alive(n, true);
+      while (true) {
+        std::vector<int> count(n, 0);
+        int most = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+          if (!alive[i]) continue;
+          for (int j : conflicts[i]) count[i] += alive[j] ? 1 : 0;
+          most = std::max(most, count[i]);
+        }
+        if (most == 0) break;
+        for (std::size_t i = 0; i < n; ++i)
+          if (alive[i] && count[i] == most) alive[i] = false, ++removed;
+      }
+      std::vector<TrackObservation> consistent;
+      for (std::size_t i = 0; i < n; ++i)
+        if (alive[i]) consistent.push_back(obs[i]);
+      if (consistent.size() < n) {
+        // The removed observations count as removed; a track that falls below two loses the rest too.
+        if (consistent.size() < 2) removed += static_cast<int>(consistent.size());
+        track.observations = std::move(consistent);
+      }
+    }
+    if (track.observations.size() >= 2) kept.push_back(std::move(track));
+  }
+  tracks = std::move(kept);
+  return removed;
+}
+
 CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& frames,
                                            const CorrespondenceOptions& options) {
   if (frames.size() < 2) throw UsageError(str("tracking needs at least 2 images, got ", frames.size()));
@@ -264,7 +335,7 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
     std::vector<std::unique_ptr<DescriptorIndex>> indices;
     for (const FrameFeatures& f : features)
       indices.push_back(std::make_unique<DescriptorIndex>(f.descriptors));
-    SiftMatcher matcher{features, indices, options, links, offset, result.pairs};
+    SiftMatcher matcher{work, features, indices, options, links, offset, result.pairs};
     matcher.match_all(sift_pairs, false);
     if (options.loop_matching) {
       // In KLT modes, every pair beyond consecutive frames is a loop candidate.
@@ -278,6 +349,12 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
   for (int f = 0; f < n; ++f)
     for (cv::Point2f& p : points[f]) p = work[f].to_full(p);
   result.tracks.tracks = merge_links_into_tracks(points, links);
+  if (options.track_consistency) {
+    result.inconsistent_observations =
+        enforce_track_consistency(result.tracks.tracks, result.pairs,
+                                  options.consistency_factor * options.verify_px * options.downscale);
+    log::debug("three-view check: ", result.inconsistent_observations, " observations removed");
+  }
   if (klt && options.loop_matching) result.tracks.method += "+sift";
   return result;
 }

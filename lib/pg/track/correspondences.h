@@ -33,6 +33,9 @@ struct CorrespondenceOptions {
   int min_loop_probe_matches = 15;
   double verify_px = 2.0;     // fundamental-matrix inlier threshold, in working-image pixels
   int min_pair_inliers = 20;  // a pair with fewer verified matches contributes none
+  // Three-view consistency of merged tracks (enforce_track_consistency), at this many times verify_px.
+  bool track_consistency = true;
+  double consistency_factor = 2.0;
   KltOptions klt;
   // KLT/Shi-Tomasi: consecutive frames joined by fewer tracks are matched by SIFT as well.
   int klt_min_continued = 150;
@@ -49,11 +52,14 @@ struct VerifiedPair {
   int matches = 0;    // after the ratio test and mutual check
   int inliers = 0;    // after the fundamental-matrix check
   bool loop = false;  // found by loop probing (not a sequential neighbour)
+  // x_b^T F x_a = 0 in full-resolution pixels; all zero when the pair was not accepted.
+  cv::Matx33d fundamental = cv::Matx33d::zeros();
 };
 
 struct CorrespondenceResult {
   TrackSet tracks;
-  std::vector<VerifiedPair> pairs;  // every pair matched, accepted or not
+  std::vector<VerifiedPair> pairs;    // every pair matched, accepted or not
+  int inconsistent_observations = 0;  // removed by the three-view consistency check
 };
 
 // Throws InputError for unreadable images or masks of a different size than their image,
@@ -70,5 +76,17 @@ struct PointLink {
 };
 std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Point2f>>& frame_points,
                                            const std::vector<PointLink>& links);
+
+// Three-view consistency. Merging pairwise links can chain links that are each right into a track
+// that is wrong (a-b and b-c verified, but a's and c's observations are of different points). Every
+// two observations of a track of three or more frames whose frames form an accepted pair are checked
+// against that pair's fundamental matrix (Sampson distance up to threshold_px); the observation in
+// conflict with the most others is dropped (all of them on a tie), until none conflicts. Tracks left
+// with fewer than two observations are dropped. Returns the number of observations removed.
+int enforce_track_consistency(std::vector<Track>& tracks, const std::vector<VerifiedPair>& pairs,
+                              double threshold_px);
+
+// Sampson distance (pixels) of the correspondence a <-> b under x_b^T F x_a = 0.
+double sampson_distance(const cv::Matx33d& fundamental, const cv::Point2d& a, const cv::Point2d& b);
 
 }  // namespace pg

@@ -1,6 +1,8 @@
 #include "pg/track/features.h"
 
+#include <opencv2/flann/random.h>
 #include <algorithm>
+#include <mutex>
 #include <numeric>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
@@ -88,7 +90,13 @@ struct DescriptorIndex::Impl {
 
 DescriptorIndex::DescriptorIndex(const cv::Mat& descriptors) : impl_(new Impl), rows_(descriptors.rows) {
   impl_->data = descriptors.clone();
-  if (rows_ >= 2) impl_->index.build(impl_->data, cv::flann::KDTreeIndexParams(4), cvflann::FLANN_DIST_L2);
+  if (rows_ < 2) return;
+  // The randomised trees draw from the C library's rand(): a fixed seed per build (under a lock, the
+  // state is global) makes every index, hence every match, independent of what ran before.
+  static std::mutex rand_mutex;
+  const std::lock_guard lock(rand_mutex);
+  cvflann::seed_random(0x9e3779b9u);
+  impl_->index.build(impl_->data, cv::flann::KDTreeIndexParams(4), cvflann::FLANN_DIST_L2);
 }
 
 DescriptorIndex::~DescriptorIndex() {

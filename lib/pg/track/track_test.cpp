@@ -3,6 +3,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "pg/camera/camera.h"
 #include "pg/core/error.h"
 #include "pg/testing/testing.h"
 #include "pg/track/correspondences.h"
@@ -80,6 +81,77 @@ TEST(Tracks, MergeLinksJoinsChainsAndDropsAmbiguousFrames) {
   ASSERT_EQ(ambiguous.size(), 1u);
   ASSERT_EQ(ambiguous[0].observations.size(), 2u);  // frame 0 dropped
   EXPECT_EQ(ambiguous[0].observations[0].frame, 1);
+}
+
+// Four cameras on an arc around the origin and the exact fundamental matrices of their pairs.
+struct ThreeViewScene {
+  std::vector<Camera> cameras;
+  std::vector<VerifiedPair> pairs;
+  TrackObservation observe(int frame, const Eigen::Vector3d& X) const {
+    Eigen::Vector2d px;
+    EXPECT_TRUE(cameras[frame].project_world(X, px));
+    return {frame, static_cast<float>(px.x()), static_cast<float>(px.y())};
+  }
+};
+
+ThreeViewScene three_view_scene() {
+  ThreeViewScene s;
+  for (int v = 0; v < 4; ++v) {
+    Camera c;
+    c.width = 640;
+    c.height = 480;
+    c.intrinsics = {500, 500, 319.5, 239.5};
+    const double a = 0.3 * v;
+    c.cam_from_world = Rigid3::look_at({5 * std::sin(a), 0.4 * v, -5 * std::cos(a)}, {0, 0, 0});
+    s.cameras.push_back(c);
+  }
+  const cv::Matx33d K(500, 0, 319.5, 0, 500, 239.5, 0, 0, 1);
+  for (int a = 0; a < 4; ++a)
+    for (int b = a + 1; b < 4; ++b) {
+      const Rigid3 b_from_a = s.cameras[b].cam_from_world * s.cameras[a].cam_from_world.inverse();
+      const Eigen::Matrix3d R = b_from_a.rotation.toRotationMatrix();
+      const Eigen::Vector3d t = b_from_a.translation;
+      Eigen::Matrix3d tx;
+      tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+      const Eigen::Matrix3d E = tx * R;
+      cv::Matx33d Ec;
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) Ec(r, c) = E(r, c);
+      VerifiedPair pair{a, b, 100, 100, false};
+      pair.fundamental = K.inv().t() * Ec * K.inv();
+      s.pairs.push_back(pair);
+    }
+  return s;
+}
+
+TEST(Tracks, ThreeViewCheckDropsTheObservationThatContradictsTheOthers) {
+  const ThreeViewScene s = three_view_scene();
+  const Eigen::Vector3d X(0.2, -0.1, 0.3), Y(-0.6, 0.5, -0.2);
+  // Exact observations satisfy every pair's epipolar constraint.
+  for (int a = 0; a < 4; ++a)
+    for (const VerifiedPair& p : s.pairs)
+      if (p.a == a) {
+        const TrackObservation oa = s.observe(p.a, X), ob = s.observe(p.b, X);
+        EXPECT_LT(sampson_distance(p.fundamental, {oa.x, oa.y}, {ob.x, ob.y}), 1e-3);
+      }
+  std::vector<Track> tracks(3);
+  tracks[0].observations = {s.observe(0, X), s.observe(1, X), s.observe(2, X), s.observe(3, X)};
+  // Frame 3 sees another point: it contradicts frames 0, 1 and 2, which agree with each other.
+  tracks[1].observations = {s.observe(0, X), s.observe(1, X), s.observe(2, X), s.observe(3, Y)};
+  // Frames 0 and 2 disagree and frame 1 cannot tell which is right: the track goes.
+  tracks[2].observations = {s.observe(0, X), s.observe(1, X), s.observe(2, Y)};
+  std::vector<VerifiedPair> only_02 = {s.pairs[1]};  // (0, 2)
+  ASSERT_EQ(only_02[0].a, 0);
+  ASSERT_EQ(only_02[0].b, 2);
+  std::vector<Track> first_two(tracks.begin(), tracks.begin() + 2);
+  EXPECT_EQ(enforce_track_consistency(first_two, s.pairs, 1.0), 1);
+  ASSERT_EQ(first_two.size(), 2u);
+  EXPECT_EQ(first_two[0].observations.size(), 4u);
+  ASSERT_EQ(first_two[1].observations.size(), 3u);
+  EXPECT_EQ(first_two[1].observations.back().frame, 2);
+  std::vector<Track> last{tracks[2]};
+  EXPECT_EQ(enforce_track_consistency(last, only_02, 1.0), 3);
+  EXPECT_TRUE(last.empty());
 }
 
 // A textured image and a copy under a known homography: verified SIFT matches follow it.
