@@ -2,6 +2,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "pg/image/image_io.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -56,18 +58,7 @@ double DepthFromFlowResult::valid_fraction() const {
 }
 
 cv::Mat1f local_texture(const cv::Mat& image) {
-  cv::Mat grey;
-  if (image.channels() == 1) {
-    grey = image;
-  } else {
-    cv::Mat bgr;
-    if (image.channels() == 4) cv::cvtColor(image, bgr, cv::COLOR_BGRA2BGR);
-    else bgr = image;
-    cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
-  }
-  const double scale = image.depth() == CV_8U ? 1.0 / 255 : image.depth() == CV_16U ? 1.0 / 65535 : 1.0;
-  cv::Mat1f g;
-  grey.convertTo(g, CV_32F, scale);
+  const cv::Mat1f g = to_float_gray(image);
   cv::Mat1f gx, gy;
   cv::Sobel(g, gx, CV_32F, 1, 0, 3, 1.0 / 8);  // per-pixel derivative
   cv::Sobel(g, gy, CV_32F, 0, 1, 3, 1.0 / 8);
