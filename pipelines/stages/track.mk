@@ -13,7 +13,7 @@ TRACK_CAMERAS = $(if $(TRACK_TRUTH),$(TRACK_DIR)/cameras-aligned.json,$(TRACK_DI
 TRACK_EVAL = $(WORK)/eval/cameras.json
 
 $(TRACK_OUTPUTS) &: $(TRACK_IMAGES) $(TRACK_INTRINSICS) | $(TRACK_DIR)/ $(REPORTS)/
-	$(PG_BIN)/pg-track --images $(abspath $(TRACK_IMAGES)) --out $(TRACK_DIR) \
+	$(PG_BIN)/pg-track --images $(TRACK_IMAGES) --out $(TRACK_DIR) \
 	  $(if $(TRACK_INTRINSICS),--cameras $(TRACK_INTRINSICS) --intrinsics fixed) $(TRACK_FLAGS) \
 	  $(PG_FLAGS) $(call pg_report,track)
 

@@ -10,6 +10,7 @@
 #include "pg/eval/camera_eval.h"
 #include "pg/mesh/point_cloud.h"
 #include "pg/sfm/orientation_error.h"
+#include "pg/testing/exif_writer.h"
 #include "pg/testing/testing.h"
 
 namespace fs = std::filesystem;
@@ -73,6 +74,10 @@ TEST_F(PgTrack, OrbitWithExactIntrinsicsMeetsTheAccuracyTargets) {
   for (const pg::Camera& c : estimate.cameras) {
     ASSERT_TRUE(c.quality.has_value());
     EXPECT_GT(*c.quality, 0.5) << c.id;
+    // Image paths are relative to the cameras file's folder (formats/cameras.md), so the file still
+    // finds its images when read from another working directory.
+    EXPECT_FALSE(fs::path(c.image).is_absolute()) << c.image;
+    EXPECT_TRUE(fs::exists(out / c.image)) << c.image;
   }
 
   // The sparse points lie on the true surface: after the same alignment, they sit within the scene.
@@ -131,6 +136,37 @@ TEST_F(PgTrack, OrbitSelfCalibratesTheFocalLength) {
             << " px), centre error median " << 100 * eval.centre_error.median / path_extent(truth) << "%\n";
   EXPECT_LT(eval.focal_relative_error.max, 0.005);
   EXPECT_LT(eval.centre_error.median, 0.001 * path_extent(truth));
+}
+
+// Photos that carry EXIF start from the focal length it gives, not from a guess.
+TEST_F(PgTrack, SelfCalibrationStartsFromTheExifFocalLength) {
+  const pg::CameraSet truth = pg::read_cameras(scene() / "cameras.json");
+  const pg::Camera& first = truth.cameras.front();
+  TempDir in, out;
+  pg::testing::ExifFields exif;
+  exif.focal_mm = first.intrinsics.fx / 100;  // a sensor of 100 px per mm
+  exif.plane_px_per_unit = 100;
+  exif.plane_unit = 4;
+  exif.pixel_width = first.width;
+  for (int i = 0; i < 6; ++i) {
+    const std::string id = truth.cameras[i].id;
+    std::vector<unsigned char> jpeg;
+    cv::imencode(".jpg", cv::imread((scene() / "images" / (id + ".png")).string()), jpeg,
+                 {cv::IMWRITE_JPEG_QUALITY, 97});
+    pg::testing::write_bytes(in / (id + ".jpg"), pg::testing::with_exif(jpeg, exif));
+  }
+  const auto r = run_tool("pg-track", {"--images", in.path().string(), "--out", out.path().string(),
+                                       "--report", (out / "report.json").string()});
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const nlohmann::json report = nlohmann::json::parse(pg::testing::read_text(out / "report.json"));
+  EXPECT_EQ(report["metrics"]["initial_focal_source"].get<std::string>().rfind("EXIF (6 of 6", 0), 0u)
+      << report["metrics"]["initial_focal_source"];
+  EXPECT_NEAR(report["metrics"]["initial_focal_px"].get<double>(), first.intrinsics.fx,
+              1e-3 * first.intrinsics.fx);
+  const pg::CameraSet estimate = pg::read_cameras(out / "cameras.json");
+  ASSERT_EQ(estimate.cameras.size(), 6u);
+  // Six JPEG frames constrain the focal length less than the full orbit (held to 0.5% above).
+  EXPECT_NEAR(estimate.cameras[0].intrinsics.fx, first.intrinsics.fx, 0.01 * first.intrinsics.fx);
 }
 
 TEST_F(PgTrack, RangeTracksASubSequence) {

@@ -8,6 +8,7 @@
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/core/run_report.h"
+#include "pg/image/exif.h"
 #include "pg/image/image_io.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/sfm_outputs.h"
@@ -66,6 +67,14 @@ std::vector<fs::path> apply_range(const std::vector<fs::path>& images, const std
   }
 }
 
+// The cameras file names images relative to its own folder (formats/cameras.md), whatever the
+// working directory pg-track ran in; absolute when no relative path exists.
+std::string image_path_from(const fs::path& out_dir, const fs::path& image) {
+  const fs::path relative =
+      fs::absolute(image).lexically_normal().lexically_relative(fs::absolute(out_dir).lexically_normal());
+  return relative.empty() ? fs::absolute(image).lexically_normal().string() : relative.generic_string();
+}
+
 // Initial cameras: from --cameras (one camera for all frames, or one per frame id), else self-calibration.
 std::vector<pg::Camera> initial_cameras(const Options& o, const std::vector<pg::SequenceFrame>& frames,
                                         const pg::TrackSet& tracks, bool& per_frame, bool& given) {
@@ -86,18 +95,39 @@ std::vector<pg::Camera> initial_cameras(const Options& o, const std::vector<pg::
                                                 " but image ", frames[f].image.string(), " is ",
                                                 tracks.frames[f].width, "x", tracks.frames[f].height));
       pg::Camera cam = *c;
-      cam.image = frames[f].image.string();
+      cam.image = image_path_from(o.out, frames[f].image);
       cameras.push_back(cam);
     }
     return cameras;
   }
+  const int width = tracks.frames[0].width, height = tracks.frames[0].height;
+  double focal = o.focal;
+  std::string source = "--focal";
+  if (focal <= 0) {
+    // The photos' own EXIF (median over the frames that have it), else a guess that the bundle
+    // adjustment refines.
+    std::vector<double> from_exif;
+    for (std::size_t f = 0; f < frames.size(); ++f)
+      if (auto px = pg::focal_px_from_exif(pg::read_exif_focal(frames[f].image), width, height))
+        from_exif.push_back(*px);
+    if (!from_exif.empty()) {
+      std::nth_element(from_exif.begin(), from_exif.begin() + from_exif.size() / 2, from_exif.end());
+      focal = from_exif[from_exif.size() / 2];
+      source = pg::str("EXIF (", from_exif.size(), " of ", frames.size(), " images)");
+    } else {
+      focal = pg::default_focal_guess(width, height);
+      source = "default guess (1.2 x the larger side)";
+    }
+  }
+  pg::log::info("pg-track: initial focal length ", focal, " px from ", source);
+  pg::RunReport::global().set_metric("initial_focal_px", focal);
+  pg::RunReport::global().set_metric("initial_focal_source", source);
   for (std::size_t f = 0; f < frames.size(); ++f) {
     pg::Camera c;
     c.id = frames[f].id;
-    c.image = frames[f].image.string();
+    c.image = image_path_from(o.out, frames[f].image);
     c.width = tracks.frames[f].width;
     c.height = tracks.frames[f].height;
-    const double focal = o.focal > 0 ? o.focal : pg::default_focal_guess(c.width, c.height);
     c.intrinsics = {focal, focal, (c.width - 1) / 2.0, (c.height - 1) / 2.0};
     cameras.push_back(c);
   }
@@ -129,7 +159,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "fixed", "refine"}));
   app.add_option("--focal", o.focal,
-                 "initial focal length in pixels without --cameras (default 1.2 x the larger side)");
+                 "initial focal length in pixels without --cameras (default: from the images' EXIF, else 1.2 "
+                 "x the larger side)");
   app.add_flag("--refine-distortion", o.refine_distortion, "also refine radial k1, k2");
   app.add_flag("--refine-principal-point", o.refine_principal_point, "also refine the principal point");
   app.add_option("--masks", o.masks, "folder of masks named like the images (<stem>.png); non-zero = usable");

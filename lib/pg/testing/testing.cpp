@@ -57,6 +57,11 @@ void write_text(const fs::path& path, const std::string& text) {
   out << text;
 }
 
+void write_bytes(const fs::path& path, const std::vector<unsigned char>& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+}
+
 ToolResult run_tool(const std::string& tool, const std::vector<std::string>& args,
                     const std::vector<std::string>& extra_env) {
   TempDir capture;

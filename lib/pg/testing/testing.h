@@ -40,6 +40,7 @@ ToolResult run_tool(const std::string& tool, const std::vector<std::string>& arg
 
 std::string read_text(const std::filesystem::path& path);
 void write_text(const std::filesystem::path& path, const std::string& text);
+void write_bytes(const std::filesystem::path& path, const std::vector<unsigned char>& bytes);
 
 }  // namespace pg::testing
 
