@@ -169,6 +169,49 @@ TEST_F(PgTrack, SelfCalibrationStartsFromTheExifFocalLength) {
   EXPECT_NEAR(estimate.cameras[0].intrinsics.fx, first.intrinsics.fx, 0.01 * first.intrinsics.fx);
 }
 
+// A checkerboard of known square size seen in the sequence puts the reconstruction in metres.
+TEST(PgTrackScale, ACheckerboardInTheImagesGivesMetres) {
+  TempDir scene, out;
+  ASSERT_EQ(run_tool("pg-synth", {"checkerboard", "--width", "480", "--height", "360", "--views", "8",
+                                  "--no-depth", "--supersample", "2", "--out", scene.path().string()})
+                .exit_code,
+            0);
+  const nlohmann::json manifest = nlohmann::json::parse(pg::testing::read_text(scene / "scene.json"));
+  const auto& corners = manifest["extras"]["inner_corners"];
+  const std::string board =
+      std::to_string(corners[0].get<int>()) + "x" + std::to_string(corners[1].get<int>());
+  const std::string square = std::to_string(manifest["extras"]["square_size"].get<double>());
+  const auto r =
+      run_tool("pg-track", {"--images", (scene / "images").string(), "--cameras",
+                            (scene / "cameras.json").string(), "--scale-board", board, square, "--out",
+                            out.path().string(), "--report", (out / "report.json").string()});
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const pg::CameraSet truth = pg::read_cameras(scene / "cameras.json");
+  const pg::CameraSet estimate = pg::read_cameras(out / "cameras.json");
+  ASSERT_EQ(estimate.cameras.size(), truth.cameras.size());
+  // Every camera-to-camera distance comes out in metres.
+  double worst = 0;
+  for (std::size_t a = 0; a < truth.cameras.size(); ++a)
+    for (std::size_t b = a + 1; b < truth.cameras.size(); ++b) {
+      const double true_distance =
+          (truth.cameras[a].cam_from_world.centre() - truth.cameras[b].cam_from_world.centre()).norm();
+      const double distance =
+          (estimate.cameras[a].cam_from_world.centre() - estimate.cameras[b].cam_from_world.centre()).norm();
+      worst = std::max(worst, std::abs(distance / true_distance - 1));
+    }
+  std::cout << "[ measured ] checkerboard scale: worst relative baseline error " << 100 * worst << "%\n";
+  EXPECT_LT(worst, 0.005);
+  const nlohmann::json report = nlohmann::json::parse(pg::testing::read_text(out / "report.json"));
+  EXPECT_EQ(report["metrics"]["scale_board_views"].size(), 8u);
+
+  // A board that is not in the images is a computation failure naming the board, not a silent no-op.
+  const auto missing = run_tool(
+      "pg-track", {"--images", (scene / "images").string(), "--cameras", (scene / "cameras.json").string(),
+                   "--scale-board", "12x10", square, "--out", (out / "again").string()});
+  EXPECT_EQ(missing.exit_code, 4) << missing.stderr_text;
+  EXPECT_NE(missing.stderr_text.find("12x10"), std::string::npos) << missing.stderr_text;
+}
+
 TEST_F(PgTrack, RangeTracksASubSequence) {
   TempDir out;
   const auto r = run_tool(

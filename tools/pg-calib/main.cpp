@@ -63,22 +63,6 @@ std::vector<fs::path> expand_images(const std::vector<std::string>& args) {
   return files;
 }
 
-BoardSpec parse_board(const std::string& text, double square) {
-  BoardSpec board;
-  const auto x = text.find('x');
-  try {
-    if (x == std::string::npos) throw std::invalid_argument("");
-    std::size_t used = 0;
-    board.cols = std::stoi(text.substr(0, x), &used);
-    board.rows = std::stoi(text.substr(x + 1));
-  } catch (const std::exception&) {
-    throw UsageError("--board \"" + text + "\" must be inner corners as COLSxROWS, e.g. 9x6");
-  }
-  board.square_size = square;
-  board.check();
-  return board;
-}
-
 struct CameraRun {
   std::vector<ImageDetection> detections;
   std::vector<ViewInput> views;  // found views, in image order

@@ -4,12 +4,14 @@
 #include <iostream>
 
 #include "common/cli.h"
+#include "pg/calib/board.h"
 #include "pg/camera/cameras_io.h"
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/core/run_report.h"
 #include "pg/image/exif.h"
 #include "pg/image/image_io.h"
+#include "pg/sfm/board_scale.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/sfm_outputs.h"
 #include "pg/track/correspondences.h"
@@ -23,7 +25,8 @@ struct Options {
   std::string out, cameras, masks, range, intrinsics = "auto", matcher = "sift";
   double focal = 0;
   bool refine_distortion = false, refine_principal_point = false, no_loops = false;
-  std::vector<std::string> scale;  // id_a id_b distance
+  std::vector<std::string> scale;        // id_a id_b distance
+  std::vector<std::string> scale_board;  // COLSxROWS square
 };
 
 bool is_image(const fs::path& p) {
@@ -142,7 +145,8 @@ int main(int argc, char** argv) {
        "sparse correspondences and camera recovery (structure from motion) for an ordered sequence",
        "pg-track --images shot/ --out track/\n"
        "pg-track --images shot/ --cameras calib.json --intrinsics fixed --matcher klt --out track/\n"
-       "pg-track --images a.png b.png c.png --range 0:2 --scale a b 1.5 --out track/"});
+       "pg-track --images a.png b.png c.png --range 0:2 --scale a b 1.5 --out track/\n"
+       "pg-track --images shot/ --scale-board 9x6 0.025 --out track/"});
   CLI::App& app = frame.app();
   Options o;
   pg::CorrespondenceOptions co;
@@ -180,8 +184,25 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--scale", o.scale, "ID_A ID_B METRES: scale so that these two cameras are this far apart")
       ->expected(3);
+  app.add_option(
+         "--scale-board", o.scale_board,
+         "COLSxROWS SQUARE_METRES: scale from a checkerboard (inner corners, square size) seen in the "
+         "images")
+      ->expected(2);
 
   return frame.run(argc, argv, [&] {
+    if (!o.scale.empty() && !o.scale_board.empty())
+      throw pg::UsageError("give --scale or --scale-board, not both");
+    std::optional<pg::calib::BoardSpec> board;
+    if (!o.scale_board.empty()) {
+      double square = 0;
+      try {
+        square = std::stod(o.scale_board[1]);
+      } catch (const std::logic_error&) {
+        throw pg::UsageError("--scale-board: square size \"" + o.scale_board[1] + "\" is not a number");
+      }
+      board = pg::calib::parse_board(o.scale_board[0], square);
+    }
     std::vector<fs::path> images = apply_range(list_images(o.images), o.range);
     if (images.size() < 2)
       throw pg::UsageError(pg::str("tracking needs at least 2 images, got ", images.size()));
@@ -228,6 +249,24 @@ int main(int argc, char** argv) {
     if (!o.scale.empty()) {
       const double s = pg::scale_to_distance(result, o.scale[0], o.scale[1], std::stod(o.scale[2]));
       pg::log::info("pg-track: scaled by ", s);
+    }
+    if (board) {
+      std::vector<pg::Camera> posed;
+      std::vector<fs::path> posed_images;
+      for (std::size_t f = 0; f < frames.size(); ++f)
+        if (result.registered[f]) posed.push_back(result.cameras[f]), posed_images.push_back(frames[f].image);
+      pg::BoardScale scale;
+      {
+        pg::ScopedTimer timer("board_scale");
+        scale = pg::scale_from_board(posed, posed_images, *board);
+      }
+      pg::scale_reconstruction(result, scale.metres_per_unit);
+      pg::log::info("pg-track: scaled by ", scale.metres_per_unit, " from the board in ", scale.views,
+                    " images (spread ", 100 * scale.relative_spread, "%)");
+      auto& report = pg::RunReport::global();
+      report.set_metric("scale_board_views", scale.used);
+      report.set_metric("scale_metres_per_unit", scale.metres_per_unit);
+      report.set_metric("scale_relative_spread", scale.relative_spread);
     }
     pg::color_points(result, correspondences.tracks);
     for (std::size_t t = 0; t < correspondences.tracks.tracks.size(); ++t)

@@ -1,6 +1,7 @@
 #pragma once
 // The calibration target: a checkerboard described by its inner corners and square size.
 #include <opencv2/core.hpp>
+#include <string>
 #include <vector>
 
 namespace pg::calib {
@@ -16,6 +17,9 @@ struct BoardSpec {
   // a non-positive square size).
   void check() const;
 };
+
+// "COLSxROWS" inner corners (e.g. "9x6") and the square size in metres; UsageError when malformed.
+BoardSpec parse_board(const std::string& text, double square);
 
 // Corner positions on the board plane (z = 0), row-major as OpenCV orders detections, in metres.
 std::vector<cv::Point3f> board_points(const BoardSpec& board);

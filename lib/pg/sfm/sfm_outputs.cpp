@@ -161,9 +161,13 @@ double scale_to_distance(SfmResult& result, const std::string& id_a, const std::
   if (!(current > 0) || !(distance > 0))
     throw UsageError("--scale: the two cameras coincide or the distance is not positive");
   const double s = distance / current;
+  scale_reconstruction(result, s);
+  return s;
+}
+
+void scale_reconstruction(SfmResult& result, double s) {
   for (Camera& c : result.cameras) c.cam_from_world.translation *= s;
   for (SfmPoint& p : result.points) p.position *= s;
-  return s;
 }
 
 }  // namespace pg

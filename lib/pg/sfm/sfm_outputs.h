@@ -33,4 +33,7 @@ cv::Mat render_top_view(const SfmResult& result, int size = 800, double max_rms_
 double scale_to_distance(SfmResult& result, const std::string& id_a, const std::string& id_b,
                          double distance);
 
+// Multiplies every length of the reconstruction (camera centres, points) by `s`.
+void scale_reconstruction(SfmResult& result, double s);
+
 }  // namespace pg
