@@ -10,8 +10,10 @@
 #include "pg/core/provenance.h"
 #include "pg/core/run_report.h"
 #include "pg/depth/depth_geometry.h"
+#include "pg/depth/depth_memory.h"
 #include "pg/depth/depth_pair.h"
 #include "pg/flow/flow_color.h"
+#include "pg/flow/flow_memory.h"
 #include "pg/image/depth_exr.h"
 #include "pg/image/image_io.h"
 #include "pg/mesh/mesh_io.h"
@@ -85,6 +87,22 @@ cv::Mat read_view(const fs::path& path, const pg::Camera& camera) {
   return image;
 }
 
+// --max-memory: every pair's estimate (from its cameras, before any image is decoded) must fit, so a
+// job that cannot finish fails with exit code 5 before it writes anything.
+void require_memory(const Options& o, const pg::CameraSet& set, const std::vector<PairIds>& pairs,
+                    const pg::DepthPairOptions& options) {
+  for (const PairIds& ids : pairs) {
+    const pg::Camera& reference = *set.find(ids.reference);
+    const pg::Camera& other = *set.find(ids.other);
+    const pg::Camera working = options.scale == 1 ? reference : pg::scale_camera(reference, options.scale);
+    const std::uint64_t bytes = pg::depth_pair_memory_bytes(
+        reference, other, pg::decoded_image_bytes_per_pixel(image_path(o.cameras, reference)),
+        pg::max_flow_channels, options);
+    pg::cli::require_memory(bytes, pg::str("depth for pair ", ids.reference, "/", ids.other, " at ",
+                                           working.width, "x", working.height));
+  }
+}
+
 pg::DepthPairOptions pair_options(const Options& o) {
   pg::DepthPairOptions options;
   options.flow = pg::FlowOptions::preset(o.preset);
@@ -107,7 +125,9 @@ int main(int argc, char** argv) {
       {"pg-depth", "depth maps of image pairs by variational optical flow and triangulation",
        "  pg-depth --cameras shot/synth/cameras.json --out-dir shot/depth --preview\n"
        "  pg-depth --cameras c.json --pair view_000:view_001 --scale 0.5 --ply --mesh --out-dir d\n"
-       "  pg-depth --cameras c.json --range 8,4 --out-dir d      # pairs 8..11 (a farm chunk)"});
+       "  pg-depth --cameras c.json --range 8,4 --out-dir d      # pairs 8..11 (a farm chunk)\n"
+       "  pg-depth --cameras c.json --max-memory 8G --out-dir d  # exit 5 before decoding if a pair needs "
+       "more"});
   Options o;
   CLI::App& app = frame.app();
   app.add_option("--cameras", o.cameras, "cameras file (pg-cameras); images are its cameras' \"image\" paths")
@@ -141,10 +161,11 @@ int main(int argc, char** argv) {
                "also write REF-OTHER-flow.png: the flow (formats/flow-visualisation.md)");
   return frame.run(argc, argv, [&] {
     frame.input(o.cameras);
-    frame.output_dir(o.out_dir);
     const pg::DepthPairOptions options = pair_options(o);
     const pg::CameraSet set = pg::read_cameras(o.cameras);
     const std::vector<PairIds> pairs = parse_pairs(o, set);
+    require_memory(o, set, pairs, options);
+    frame.output_dir(o.out_dir);
     const fs::path out_dir = o.out_dir;
     std::size_t valid = 0, total = 0;
     double flow_seconds = 0, triangulation_seconds = 0;

@@ -38,13 +38,6 @@ void hash_string(Sha256& h, const std::string& s) {
   h.update(s.data(), s.size());
 }
 
-// Wall-clock times are not results: "timings_s" objects (pg-calib's report) are left out wherever they are.
-void erase_timings(nlohmann::json& node) {
-  if (node.is_object()) node.erase("timings_s");
-  if (node.is_object() || node.is_array())
-    for (auto& child : node) erase_timings(child);
-}
-
 bool is_pg_depth(const fs::path& path) {
   try {
     read_depth_exr(path);
@@ -108,7 +101,6 @@ std::string content_digest(const fs::path& path) {
   if (ext == ".json") {
     nlohmann::json doc = read_json_file(path);
     if (doc.is_object()) doc.erase("provenance");
-    erase_timings(doc);
     hash_string(h, doc.dump());
   } else if (ext == ".vdb") {
     hash_vdb(h, path);

@@ -6,7 +6,7 @@
 
 namespace pg::info {
 
-// SHA-256 over the decoded content: JSON without "provenance" and "timings_s" (wall-clock), EXR channels +
+// SHA-256 over the decoded content: JSON without "provenance", EXR channels +
 // camera + kind, mesh arrays and properties, .flo vectors, .vdb grids' active voxels and metadata without
 // pg/provenance, image pixels. Throws InputError for unreadable files.
 std::string content_digest(const std::filesystem::path& path);

@@ -10,6 +10,7 @@
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/core/run_report.h"
+#include "pg/flow/flow_memory.h"
 #include "pg/image/image_io.h"
 #include "pg/mesh/mesh_io.h"
 #include "pg/mesh/vertex_mask.h"
@@ -18,6 +19,7 @@
 #include "pg/refine/photometric.h"
 #include "pg/refine/refine.h"
 #include "pg/refine/refine_caches.h"
+#include "pg/refine/refine_memory.h"
 
 namespace fs = std::filesystem;
 
@@ -61,6 +63,22 @@ fs::path image_path(const pg::Camera& camera, const std::string& cameras_file) {
   return image.is_absolute() ? image : fs::path(cameras_file).parent_path() / image;
 }
 
+// --max-memory: the refinement's estimate (from the mesh and the cameras of the views in use, before
+// any photograph is decoded) must fit, so a job that cannot finish fails with exit code 5 up front.
+void require_memory(const pg::Mesh& mesh, const std::vector<pg::Camera>& cameras, const std::set<int>& used,
+                    const RunArgs& args) {
+  std::vector<pg::Camera> views;
+  std::uint64_t image_bytes_per_pixel = 0;
+  for (int v : used) {
+    views.push_back(cameras[v]);
+    image_bytes_per_pixel = std::max(image_bytes_per_pixel,
+                                     pg::decoded_image_bytes_per_pixel(image_path(cameras[v], args.cameras)));
+  }
+  pg::cli::require_memory(pg::refine_memory_bytes(mesh, views, image_bytes_per_pixel, args.options),
+                          pg::str("refinement of ", mesh.vertex_count(), " vertices and ", mesh.faces.size(),
+                                  " faces against ", views.size(), " views"));
+}
+
 void run_refinement(pg::cli::Frame& frame, RunArgs& args) {
   frame.input(args.mesh);
   frame.input(args.cameras);
@@ -101,6 +119,7 @@ void run_refinement(pg::cli::Frame& frame, RunArgs& args) {
 
   std::set<int> used;
   for (const auto& p : pairs) used.insert({p.a, p.b});
+  require_memory(mesh, cameras, used, args);
   std::vector<pg::RefineView> views(cameras.size());
   for (int v : used) {
     const pg::Camera& camera = cameras[v];
@@ -248,7 +267,9 @@ int main(int argc, char** argv) {
        "  pg-refine paint --mode erase --mesh touched.ply --pre pre.ply --post post.ply --weights "
        "w.pgmask.json "
        "--out undone.ply\n"
-       "  pg-refine rebase --mesh touched.ply --out pre2.ply"});
+       "  pg-refine rebase --mesh touched.ply --out pre2.ply\n"
+       "  pg-refine --mesh m.ply --cameras c.json --out r.ply --max-memory 8G\n"
+       "            # exit 5 before reading any image if the estimate needs more"});
   CLI::App& app = frame.app();
   app.require_subcommand(1);
   app.fallthrough();

@@ -2,14 +2,15 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
+#include <optional>
 
 #include "pg/calib/projection.h"
 #include "pg/calib/refine.h"
 #include "pg/core/error.h"
 #include "pg/core/log.h"
+#include "pg/core/run_report.h"
 
 namespace pg::calib {
 
@@ -37,10 +38,6 @@ int min_views(LensModel model) {
 }
 
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 Camera camera_from_opencv(LensModel model, const cv::Mat& K, const cv::Mat& D, cv::Size size) {
   Camera camera;
@@ -235,18 +232,20 @@ CalibrationResult calibrate(const std::vector<ViewInput>& views, const BoardSpec
     result.views.push_back(view);
   }
 
-  const auto start = std::chrono::steady_clock::now();
+  // Wall-clock phases go to the run report (--report), never into the calibration file, whose
+  // contents must be a function of the inputs alone.
+  std::optional<ScopedTimer> timer(std::in_place, "calibration_opencv_estimate");
   Initial init = initial_calibration(views, board, image_size, options, result.views);
-  result.opencv_seconds = seconds_since(start);
+  timer.reset();
   result.opencv_rms = init.cv.rms;
   log::info("OpenCV estimate on ", init.used.size(), " views: RMS ", init.cv.rms, " px, fx ",
             init.cv.camera.intrinsics.fx);
 
   std::vector<ViewInput> used_views;
   for (int i : init.used) used_views.push_back(views[i]);
-  const auto refine_start = std::chrono::steady_clock::now();
+  timer.emplace("calibration_refine");
   RefineOutput refined = refine(used_views, board, init.cv, options);
-  result.refine_seconds = seconds_since(refine_start);
+  timer.reset();
 
   result.camera = refined.camera;
   result.rms = refined.rms;

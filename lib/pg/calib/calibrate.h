@@ -74,7 +74,6 @@ struct CalibrationResult {
   std::array<double, 2> board_warp{0, 0};  // metres, peak deflection along x and y
   std::vector<ViewResult> views;           // in input order
   std::vector<ProjectionUncertainty> uncertainty;
-  double opencv_seconds = 0, refine_seconds = 0;
 };
 
 // Throws FailedError when fewer than min_views(model) views remain or OpenCV cannot initialise.

@@ -8,6 +8,7 @@
 #include "pg/calib/corner_fit.h"
 #include "pg/core/error.h"
 #include "pg/core/log.h"
+#include "pg/image/image_io.h"
 
 namespace pg::calib {
 
@@ -44,20 +45,6 @@ cv::Mat to_gray8(const cv::Mat& image) {
     gray.convertTo(out, CV_8U, 1.0 / 257.0);
   else
     gray.convertTo(out, CV_8U, 255.0);  // float in [0, 1]; saturating
-  return out;
-}
-
-cv::Mat to_gray_float(const cv::Mat& image) {
-  cv::Mat gray;
-  if (image.channels() == 1)
-    gray = image;
-  else if (image.channels() == 3)
-    cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-  else
-    cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
-  cv::Mat out;
-  const double scale = gray.depth() == CV_8U ? 1.0 / 255 : gray.depth() == CV_16U ? 1.0 / 65535 : 1.0;
-  gray.convertTo(out, CV_32F, scale);
   return out;
 }
 
@@ -118,7 +105,7 @@ void refine_corners(const cv::Mat& image, const cv::Mat& gray, const BoardSpec& 
   const int w = d.subpix_half_window;
   cv::cornerSubPix(gray, d.corners, {w, w}, {-1, -1},
                    cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-4));
-  fit_corners(to_gray_float(image), board, corner_fit_radius(square), d.corners);
+  fit_corners(to_float_gray(image), board, corner_fit_radius(square), d.corners);
 }
 
 Detection detect_sector_based(const cv::Mat& gray, const BoardSpec& board) {

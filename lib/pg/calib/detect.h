@@ -44,9 +44,6 @@ double smallest_square(const std::vector<cv::Point2f>& corners, const BoardSpec&
 // nothing, squares too small to locate, a board seen edge-on, or a folded grid.
 std::string degeneracy(const std::vector<cv::Point2f>& corners, const BoardSpec& board, cv::Size image_size);
 
-// Single-channel float copy in [0, 1] (8/16-bit scaled, float data as it is).
-cv::Mat to_gray_float(const cv::Mat& image);
-
 // 8-bit single-channel copy of any image read_image returns (float data is taken as [0, 1]).
 cv::Mat to_gray8(const cv::Mat& image);
 

@@ -83,7 +83,6 @@ nlohmann::ordered_json camera_calibration_json(const CalibrationResult& r,
     views.push_back(e);
   }
   j["views"] = views;
-  j["timings_s"] = {{"opencv", r.opencv_seconds}, {"refine", r.refine_seconds}};
   return j;
 }
 
