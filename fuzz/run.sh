@@ -14,7 +14,7 @@ examples="$root/formats/examples"
 seeds="$root/fuzz/seeds"
 regressions="$root/testdata/fuzz-regressions"
 
-all_targets=(cameras depth_exr image ply_mesh point_cloud obj vertex_mask tracks pg_json flo brush_strokes)
+all_targets=(cameras depth_exr image ply_mesh point_cloud obj vertex_mask tracks pg_json flo brush_strokes exif)
 targets=("${@:-${all_targets[@]}}")
 
 if [ ! -f "$build/build.ninja" ]; then
@@ -36,6 +36,7 @@ seed_files() {
     pg_json) ls "$examples"/*.json ;;
     flo) ls "$seeds"/flo/* ;;
     brush_strokes) ls "$examples"/brush-strokes.json ;;
+    exif) ls "$seeds"/exif/* ;;
   esac
   if [ -d "$regressions/$1" ]; then find "$regressions/$1" -type f; fi
 }
@@ -44,7 +45,7 @@ dict_of() {
   case "$1" in
     ply_mesh | point_cloud) echo "$root/fuzz/dicts/ply.dict" ;;
     obj) echo "$root/fuzz/dicts/obj.dict" ;;
-    depth_exr | image | flo) echo "" ;;
+    depth_exr | image | flo | exif) echo "" ;;
     *) echo "$root/fuzz/dicts/json.dict" ;;
   esac
 }

@@ -51,6 +51,7 @@ MERGE_DIR = $(WORK)/merge
 include $(PIPELINES)/stages/merge.mk
 
 REFINE_MESH_IN = $(MERGED_MESH)
+REFINE_MESH_ACCURACY ?= $(MERGE_VOXEL)
 REFINE_CAMERAS = $(TRACK_CAMERAS)
 REFINE_DIR = $(WORK)/refine
 include $(PIPELINES)/stages/refine.mk

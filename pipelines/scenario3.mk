@@ -44,6 +44,7 @@ $(MERGED_MESH) $(MERGE_DIR)/merged.vdb &: $(PANO_RANGE) $(call scan_files,$(SCAN
 	  --out $(MERGED_MESH) --vdb $(MERGE_DIR)/merged.vdb $(MERGE_VOLUME_FLAGS) $(PG_FLAGS) $(call pg_report,merge)
 
 REFINE_MESH_IN = $(MERGED_MESH)
+REFINE_MESH_ACCURACY ?= $(MERGE_VOXEL)
 REFINE_DIR = $(WORK)/refine
 include $(PIPELINES)/stages/refine.mk
 

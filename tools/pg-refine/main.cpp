@@ -299,6 +299,13 @@ int main(int argc, char** argv) {
   run->add_option("--smoothing-iterations", run_args.options.smoothing_iterations,
                   "smoothing sweeps (also how many rings unobserved vertices are filled in)")
       ->capture_default_str();
+  run->add_option("--mesh-accuracy", run_args.options.mesh_accuracy,
+                  "expected error of the input mesh (scene units; 0 = unknown): each pixel then counts by "
+                  "how precisely its pair resolves depth against it, so an accurate mesh is not made worse")
+      ->capture_default_str();
+  run->add_option("--flow-precision", run_args.options.flow_precision_px,
+                  "with --mesh-accuracy: the flow's standard error in working-scale pixels")
+      ->capture_default_str();
   run->add_flag("--normal-only", run_args.options.normal_only, "move vertices only along their normals");
   run->add_option("--tolerance", run_args.options.tolerance,
                   "stop when the mean displacement falls below this (scene units; 0 = run all iterations)")

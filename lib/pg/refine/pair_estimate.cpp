@@ -105,8 +105,10 @@ void DisplacementSums::reset(std::size_t vertices) {
 
 Eigen::Vector3d DisplacementSums::solve(std::size_t v) const {
   if (weight[v] <= 0) return Eigen::Vector3d::Zero();
-  // A small ridge keeps directions no pixel constrains (tangents of flat parts) at zero.
-  const Eigen::Matrix3d m = normal_matrix[v] + 0.01 * weight[v] * Eigen::Matrix3d::Identity();
+  // A small ridge keeps directions no pixel constrains (tangents of flat parts) at zero; the prior,
+  // when given, is that ridge (isotropic: the mesh may be off in any direction).
+  const double ridge = prior_precision > 0 ? prior_precision : 0.01 * weight[v];
+  const Eigen::Matrix3d m = normal_matrix[v] + ridge * Eigen::Matrix3d::Identity();
   return m.ldlt().solve(rhs[v]);
 }
 
@@ -165,6 +167,36 @@ EpipolarField surface_epipolar_field(const Mesh& mesh, const RefineViewState& a,
   return field;
 }
 
+namespace {
+
+// The distance from A's centre along the unit ray u to where B's ray through `pixel` passes closest.
+double ray_parameter(const RefineViewState& b, const Eigen::Vector3d& u, const Eigen::Vector2d& pixel,
+                     const Eigen::Vector3d& w0) {
+  const Eigen::Vector3d v = (b.world_from_cam_rotation * b.camera.unproject(pixel)).normalized();
+  const double uv = u.dot(v), denominator = 1 - uv * uv;
+  return (uv * v.dot(w0) - u.dot(w0)) / denominator;
+}
+
+// Standard error of a pixel's normal offset for a flow error of `flow_sigma_px` along the epipolar
+// line in B; NaN where the line is undefined.
+double offset_sigma(const RefineViewState& a, const RefineViewState& b, const Eigen::Vector3d& point,
+                    const Eigen::Vector3d& u, const Eigen::Vector2d& corrected, const Eigen::Vector3d& w0,
+                    const Eigen::Vector3d& normal, double flow_sigma_px) {
+  const Eigen::Matrix3d b_from_world = b.camera.cam_from_world.rotation_matrix();
+  const Eigen::Vector3d step = 1e-3 * (a.centre - point);
+  Eigen::Vector2d nearer, farther;
+  if (!b.camera.project(b_from_world * (point + step) + b.camera.cam_from_world.translation, nearer) ||
+      !b.camera.project(b_from_world * (point - step) + b.camera.cam_from_world.translation, farther))
+    return kNaN;
+  const Eigen::Vector2d line = nearer - farther;
+  if (!(line.norm() > 1e-12)) return kNaN;
+  const Eigen::Vector2d moved = corrected + flow_sigma_px * line.normalized();
+  const double dt = ray_parameter(b, u, moved, w0) - ray_parameter(b, u, corrected, w0);
+  return std::abs(dt * u.dot(normal));
+}
+
+}  // namespace
+
 std::size_t estimate_displacements(const Mesh& mesh, const RefineViewState& a, const RefineViewState& b,
                                    const SyntheticView& synthetic, const RefineOptions& options,
                                    double max_displacement, DisplacementSums& sums, double* flow_seconds) {
@@ -219,8 +251,17 @@ std::size_t estimate_displacements(const Mesh& mesh, const RefineViewState& a, c
         const double taper = options.border_taper_px > 0
                                  ? std::min(1.0, border_distance(y, x) / options.border_taper_px)
                                  : 1.0;
-        pixel_weight[i] = float(confidence * taper);
-        pixel_offset[i] = float(displacement.dot(face_normal(mesh, b.buffers.triangle[i])));
+        const Eigen::Vector3d normal = face_normal(mesh, b.buffers.triangle[i]);
+        double precision = 1;
+        if (options.mesh_accuracy > 0) {
+          // The offset's standard error: re-triangulate with the flow moved by its own error along
+          // the epipolar line (the only direction that changes depth).
+          const double sigma = offset_sigma(a, b, point, u, corrected, w0, normal, options.flow_precision_px);
+          if (!(sigma > 0)) continue;
+          precision = 1 / (sigma * sigma);
+        }
+        pixel_weight[i] = float(confidence * taper * precision);
+        pixel_offset[i] = float(displacement.dot(normal));
       }
   });
 

@@ -48,11 +48,15 @@ EpipolarField surface_epipolar_field(const Mesh& mesh, const RefineViewState& a,
 // vertex with different normals constrain it in 3-D; on flat parts only the normal motion is known,
 // so no tangential sliding is invented. Summed in a fixed pixel order: deterministic.
 struct DisplacementSums {
+  // Inverse variance of the prior that the mesh is right (RefineOptions::mesh_accuracy); 0 = none,
+  // and the pixel weights are then relative confidences rather than inverse variances.
+  double prior_precision = 0;
   std::vector<double> weight;
   std::vector<Eigen::Matrix3d> normal_matrix;
   std::vector<Eigen::Vector3d> rhs;
   void reset(std::size_t vertices);
-  // The least-squares displacement of vertex v (regularised towards zero tangential motion).
+  // The least-squares displacement of vertex v (regularised towards zero tangential motion), or with a
+  // prior the posterior mean: the measurements' weighted mean shrunk towards no motion.
   Eigen::Vector3d solve(std::size_t v) const;
 };
 

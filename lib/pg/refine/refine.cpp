@@ -45,6 +45,8 @@ void RefineOptions::check() const {
   require(scale > 0 && scale <= 4, "scale", "must be in (0, 4]");
   require(step > 0 && step <= 2, "step", "must be in (0, 2]");
   require(smoothness >= 0 && std::isfinite(smoothness), "smoothness", "must be >= 0");
+  require(mesh_accuracy >= 0 && std::isfinite(mesh_accuracy), "mesh_accuracy", "must be >= 0");
+  require(flow_precision_px > 0 && std::isfinite(flow_precision_px), "flow_precision_px", "must be > 0");
   require(smoothing_iterations >= 0 && smoothing_iterations <= 100000, "smoothing_iterations",
           "must be >= 0");
   require(tolerance >= 0, "tolerance", "must be >= 0");
@@ -202,6 +204,8 @@ RefineResult refine_mesh(const Mesh& mesh, const std::vector<RefineView>& views,
     render_all(current);
     stats.render_seconds += seconds_since(start);
     sums.reset(n);
+    sums.prior_precision =
+        options.mesh_accuracy > 0 ? 1 / (options.mesh_accuracy * options.mesh_accuracy) : 0;
     for (std::size_t k = 0; k < directed.size(); ++k) {
       const ViewPair& d = directed[k];
       const RefineViewState &a = states.at(d.a), &b = states.at(d.b);
@@ -225,7 +229,9 @@ RefineResult refine_mesh(const Mesh& mesh, const std::vector<RefineView>& views,
     for (std::size_t v = 0; v < n; ++v)
       if (sums.weight[v] > 0) {
         observed[v] = sums.solve(v).cast<float>();
-        confidence[v] = float(sums.weight[v] / (sums.weight[v] + 1.0));
+        // With a prior: the share of the vertex's information that comes from the photographs.
+        const double saturation = sums.prior_precision > 0 ? sums.prior_precision : 1.0;
+        confidence[v] = float(sums.weight[v] / (sums.weight[v] + saturation));
       }
     std::vector<Eigen::Vector3f> displacement = smooth_displacements(
         graph, observed, confidence, fixed, options.smoothness, options.smoothing_iterations);

@@ -66,6 +66,13 @@ struct RefineOptions {
   // accuracy (the deform scene: 93% less vertex error in 4 iterations, either mode); with camera
   // errors both degrade alike (0.5 px: 81%, 1.5 px: 50%), so free buys no robustness there.
   RefineFlow flow_mode = RefineFlow::epipolar;
+  // How far the input mesh is expected to be from the truth (scene units); 0 = unknown, the photos
+  // decide alone. When set, each pixel's measurement counts by how precisely its pair resolves depth
+  // there (flow_precision_px of flow error, triangulated) against this prior: a mesh already more
+  // accurate than a pair can see (a scan-backed merge refined from a short-baseline panorama pair)
+  // barely moves, while errors well above the pair's precision are corrected as before.
+  double mesh_accuracy = 0;
+  double flow_precision_px = 0.25;  // standard error of the flow, in working-scale pixels
   FlowOptions flow = refine_flow_options();
   // Throws UsageError naming the first invalid field.
   void check() const;

@@ -74,6 +74,33 @@ TEST(Refine, ConformsTheDeformSceneToThePhotographs) {
   EXPECT_EQ(result.error_before.size(), result.error_after.size());
 }
 
+// --mesh-accuracy: a prior on the input mesh weighs each pixel by how precisely its pair resolves depth.
+// Errors far above the pairs' precision are still corrected; a mesh already right is left nearly so.
+TEST(Refine, AMeshAccuracyPriorCorrectsLargeErrorsAndLeavesAnAccurateMeshAlone) {
+  const DeformFixture& f = deform();
+  const pg::TriangleBvh truth(f.scene.mesh);
+  pg::RefineOptions options = test_options(4);
+  options.mesh_accuracy = 0.04;  // the deformation's amplitude
+  const pg::Mesh& initial = *f.scene.initial_mesh;
+  const double before = pg::testing::mean_vertex_distance(initial, truth, {});
+  const double after =
+      pg::testing::mean_vertex_distance(pg::refine_mesh(initial, f.views, {}, {}, options).mesh, truth, {});
+  std::cout << "[ measured ] deformed rock with a 4 cm prior: " << before << " -> " << after << "\n";
+  EXPECT_LT(after, 0.25 * before);
+
+  // The true surface itself: the photographs' noise is all a refinement can add.
+  options.iterations = 2;
+  options.mesh_accuracy = 0;
+  const double unknown = pg::testing::mean_vertex_distance(
+      pg::refine_mesh(f.scene.mesh, f.views, {}, {}, options).mesh, truth, {});
+  options.mesh_accuracy = 0.0005;
+  const double known = pg::testing::mean_vertex_distance(
+      pg::refine_mesh(f.scene.mesh, f.views, {}, {}, options).mesh, truth, {});
+  std::cout << "[ measured ] true surface refined: " << unknown << " without a prior, " << known
+            << " with 0.5 mm\n";
+  EXPECT_LT(known, 0.5 * unknown);
+}
+
 // The lines of the epipolar mode: moving a surface point along A's ray moves its B image along the
 // line through its pixel, towards A's side of the line for points nearer A.
 TEST(Refine, EpipolarLinesCarryTheSurfacePointsAlongARay) {
