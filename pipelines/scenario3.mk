@@ -8,7 +8,7 @@
 #   PANO_CAMERAS    cameras file holding the two panoramas as a rig (pg-sphdepth --cameras)
 #   PANO_STEM       name of the range map (default: pano)
 #   SCANS           range scans (PLY/OBJ meshes, or range EXRs such as a LIDAR's), FILE@W weighs one
-#   SCAN_FLAGS      e.g. --sensor-origin X,Y,Z for mesh scans
+#   SCAN_FLAGS      e.g. --sensor-origin X,Y,Z for mesh and point-cloud scans without their own origins
 #   AREA_DEPTH      perspective depth maps of the area (e.g. scenario2.mk's WORK/depth/*.exr)
 #   REFINE_CAMERAS  cameras the refinement compares (the area's photos; default PANO_CAMERAS)
 #   REFINE_WORKING_SET / REFINE_PINNED  vertex masks of the merged mesh, optional

@@ -135,11 +135,16 @@ std::vector<MergeInput> list_inputs(cli::Frame& frame, const InputOptions& o) {
     }
   }
   if (!o.scans.empty() || !o.scan_conf.empty()) {
-    if (o.sensor_origin.empty() == o.sensor_direction.empty())
-      throw UsageError(
-          "scans need exactly one of --sensor-origin or --sensor-direction (in each scan's frame)");
+    if (!o.sensor_origin.empty() && !o.sensor_direction.empty())
+      throw UsageError("scans take one of --sensor-origin or --sensor-direction, not both");
+    const bool sensor_given = !o.sensor_origin.empty() || !o.sensor_direction.empty();
     auto scan_input = [&](const fs::path& path, const Rigid3& placement, double weight) {
       frame.input(path);
+      // Only point clouds whose points carry their own sensor origins need no sensor option.
+      if (!sensor_given && !inspect_scan(path).per_point_origins)
+        throw UsageError(str(path.string(),
+                             ": scans need --sensor-origin x,y,z or --sensor-direction x,y,z (in each scan's "
+                             "frame), unless its points carry sensor_x, sensor_y, sensor_z"));
       MergeInput in;
       in.kind = InputKind::scan;
       in.path = path;
@@ -237,10 +242,12 @@ void add_input_options(CLI::App& c, InputOptions& o) {
                "scene units per RGB-D depth unit (0.001: millimetres to metres)")
       ->capture_default_str();
   c.add_option("--scan", o.scans,
-               "range scans (PLY/OBJ meshes or Stanford range grids); FILE@W weighs one by W")
+               "range scans (PLY/OBJ meshes, Stanford range grids, or PLY point clouds integrated along "
+               "each point's sensor ray); FILE@W weighs one by W")
       ->expected(1, -1);
   c.add_option("--scan-conf", o.scan_conf, "Stanford .conf alignment file listing scans (bmesh lines)");
-  c.add_option("--sensor-origin", o.sensor_origin, "scans: sensor centre x,y,z in each scan's frame")
+  c.add_option("--sensor-origin", o.sensor_origin,
+               "scans: sensor centre x,y,z in each scan's frame (point clouds may carry sensor_x/y/z)")
       ->delimiter(',')
       ->expected(3);
   c.add_option("--sensor-direction", o.sensor_direction,
@@ -300,6 +307,7 @@ int main(int argc, char** argv) {
        "      --rgbd-color 'color/{id}.png' --voxel-size 0.01 --max-depth 3 --out room.ply\n"
        "  pg-merge volume --scan-conf bunny/data/bun.conf --sensor-direction 0,0,-1 --voxel-size 0.0005 "
        "--out bunny.ply\n"
+       "  pg-merge volume --scan sweep.ply --sensor-origin 0,0,1.8 --voxel-size 0.02 --out room.ply\n"
        "  pg-merge integrate --depth d/*.exr --range-start 0 --range-size 50 --voxel-size 0.02 --vdb "
        "part0.vdb\n"
        "  pg-merge combine --partials part*.vdb --out merged.ply --vdb merged.vdb\n"

@@ -23,6 +23,18 @@ void integrate_input(TsdfVolume& volume, const MergeInput& input, const InputSet
     volume.integrate(load_frame(input, settings));
     return;
   }
+  if (inspect_scan(input.path).kind == ScanKind::points) {
+    ScanPoints points = place_scan_points(read_scan_points(input.path), input.world_from_scan,
+                                          input.sensor_origin, input.sensor_direction);
+    const WeightOptions& w = settings.weights;
+    points.multiplier = input.multiplier;
+    points.use_angle = w.use_angle;
+    points.min_cos = w.min_cos;
+    points.use_confidence = w.use_confidence;
+    points.max_range = w.max_depth;
+    volume.integrate(points);
+    return;
+  }
   ScanSurface scan = place_scan(read_scan_mesh(input.path, settings.max_edge_factor), input.world_from_scan,
                                 input.sensor_origin, input.sensor_direction, input.path.string());
   scan.multiplier = input.multiplier;

@@ -14,7 +14,7 @@ enum class InputKind { depth_exr, rgbd, scan };
 
 struct MergeInput {
   InputKind kind = InputKind::depth_exr;
-  std::filesystem::path path;   // depth EXR, RGB-D depth image, or scan mesh / range grid
+  std::filesystem::path path;   // depth EXR, RGB-D depth image, or scan mesh / range grid / points
   std::filesystem::path color;  // optional colour image (depth EXR, RGB-D)
   std::filesystem::path mask;   // optional user mask image, nonzero = ignore (depth EXR, RGB-D)
   Camera camera;                // RGB-D: the depth image's camera
@@ -29,7 +29,8 @@ struct InputSettings {
   double max_edge_factor = 4.0;  // range grids: longest edge kept, in median grid spacings
 };
 
-// Loads one input and integrates it. Throws InputError naming the file at fault.
+// Loads one input and integrates it; a scan file holding only vertices is integrated as points
+// (inspect_scan). Throws InputError naming the file at fault.
 void integrate_input(TsdfVolume& volume, const MergeInput& input, const InputSettings& settings);
 
 // Loads a depth EXR or RGB-D input as a frame (for checks such as depth agreement).

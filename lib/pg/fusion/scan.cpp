@@ -17,7 +17,8 @@ struct RangeGridHeader {
   std::uint64_t vertices = 0, cells = 0;
   std::uint64_t rows = 0, cols = 0;
   int vertex_properties = 0, x_index = -1, y_index = -1, z_index = -1;
-  bool ascii = false, has_grid = false, has_faces = false;
+  bool ascii = false, has_grid = false, has_faces = false, has_vertex_list = false;
+  std::vector<std::string> vertex_names;
 };
 
 RangeGridHeader read_header(std::istream& in, const std::filesystem::path& path) {
@@ -25,6 +26,7 @@ RangeGridHeader read_header(std::istream& in, const std::filesystem::path& path)
   std::string line, current;
   if (!std::getline(in, line) || line.rfind("ply", 0) != 0) throw InputError(path, "not a PLY file");
   while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();  // headers written on Windows
     std::istringstream words(line);
     std::string word;
     words >> word;
@@ -48,7 +50,11 @@ RangeGridHeader read_header(std::istream& in, const std::filesystem::path& path)
     } else if (word == "property" && current == "vertex") {
       std::string type, name;
       words >> type >> name;
-      if (type == "list") throw InputError(path, "list properties on vertices are not supported");
+      if (type == "list") {
+        h.has_vertex_list = true;
+        continue;
+      }
+      h.vertex_names.push_back(name);
       if (name == "x") h.x_index = h.vertex_properties;
       if (name == "y") h.y_index = h.vertex_properties;
       if (name == "z") h.z_index = h.vertex_properties;
@@ -106,6 +112,7 @@ Mesh read_range_grid(const std::filesystem::path& path, double max_edge_factor) 
   if (!h.has_grid)
     throw InputError(path, "neither faces nor a range_grid element: a scan needs its triangles or grid");
   if (!h.ascii) throw InputError(path, "only ascii range-grid PLY files are supported");
+  if (h.has_vertex_list) throw InputError(path, "list properties on range-grid vertices are not supported");
   if (h.x_index < 0 || h.y_index < 0 || h.z_index < 0) throw InputError(path, "vertices lack x, y or z");
   if (h.rows == 0 || h.cols == 0 || h.rows * h.cols != h.cells)
     throw InputError(path, str("range_grid has ", h.cells, " cells but obj_info num_rows x num_cols is ",
@@ -138,17 +145,30 @@ Mesh read_range_grid(const std::filesystem::path& path, double max_edge_factor) 
   return mesh;
 }
 
-bool has_faces_or_is_obj(const std::filesystem::path& path) {
-  if (path.extension() == ".obj" || path.extension() == ".OBJ") return true;
-  std::ifstream in(path);
+bool is_obj(const std::filesystem::path& path) {
+  return path.extension() == ".obj" || path.extension() == ".OBJ";
+}
+
+RangeGridHeader read_header(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "cannot open");
-  return read_header(in, path).has_faces;
+  return read_header(in, path);
 }
 
 }  // namespace
 
+ScanFileInfo inspect_scan(const std::filesystem::path& path) {
+  if (is_obj(path)) return {};
+  const RangeGridHeader h = read_header(path);
+  if (h.has_faces || h.has_grid) return {};
+  const auto& names = h.vertex_names;
+  auto has = [&](const char* name) { return std::find(names.begin(), names.end(), name) != names.end(); };
+  return {ScanKind::points, has(sensor_origin_properties[0]) && has(sensor_origin_properties[1]) &&
+                                has(sensor_origin_properties[2])};
+}
+
 Mesh read_scan_mesh(const std::filesystem::path& path, double max_edge_factor) {
-  if (has_faces_or_is_obj(path)) {
+  if (is_obj(path) || read_header(path).has_faces) {
     Mesh mesh = read_mesh(path);
     if (mesh.faces.empty()) throw InputError(path, "the scan has no faces");
     return mesh;

@@ -7,10 +7,21 @@
 #include <string>
 #include <vector>
 
+#include "pg/fusion/scan_points.h"
 #include "pg/geometry/rigid.h"
 #include "pg/mesh/mesh.h"
 
 namespace pg::fusion {
+
+// What a scan file holds: triangles (a PLY with faces, an OBJ, a Stanford range grid) or bare points
+// (PLY vertices only: read_scan_points), and whether those points carry their own sensor origins.
+enum class ScanKind { mesh, points };
+struct ScanFileInfo {
+  ScanKind kind = ScanKind::mesh;
+  bool per_point_origins = false;
+};
+// Reads only the header. Throws InputError(path) for a file that is not a PLY (or OBJ).
+ScanFileInfo inspect_scan(const std::filesystem::path& path);
 
 // Exactly one of sensor_origin (rays spread from a point: LIDAR, a camera) or sensor_direction
 // (parallel rays: a linear scanner such as the Cyberware) is set. Both are in world coordinates.

@@ -32,6 +32,8 @@ class LeafCollector {
     }
   }
 
+  void touch_voxel(const Coord& voxel) { accessors_.local().touchLeaf(voxel); }
+
   std::vector<Coord> leaf_origins() {
     MaskTree all;
     for (auto& local : accessors_) all.topologyUnion(*local.tree);
@@ -252,6 +254,84 @@ inline void accumulate_color(LeafSet& leaves, int n, const openvdb::Vec3s& color
   leaves.color_weight->setValueOn(n, w1);
 }
 
+// Calls visit(voxel) for every voxel whose cube (side one voxel around its centre) the segment
+// from + s * direction, s in [0, length], crosses, in order along the segment, each once (Amanatides &
+// Woo's traversal). World units; direction unit.
+template <class Visit>
+void for_each_crossed_voxel(const Eigen::Vector3d& from, const Eigen::Vector3d& direction, double length,
+                            double inverse_voxel, Visit&& visit) {
+  // Index space shifted by half a voxel, so that voxel i covers [i, i + 1) on each axis.
+  const Eigen::Vector3d start = from * inverse_voxel + Eigen::Vector3d::Constant(0.5);
+  const double end = length * inverse_voxel;
+  Coord cell(int(std::floor(start.x())), int(std::floor(start.y())), int(std::floor(start.z())));
+  int step[3];
+  double next[3], delta[3];
+  for (int a = 0; a < 3; ++a) {
+    step[a] = direction[a] > 0 ? 1 : -1;
+    const double boundary = cell[a] + (direction[a] > 0 ? 1 : 0);
+    next[a] = direction[a] != 0 ? (boundary - start[a]) / direction[a] : INFINITY;
+    delta[a] = direction[a] != 0 ? 1.0 / std::abs(direction[a]) : INFINITY;
+  }
+  for (;;) {
+    visit(cell);
+    const int a = next[0] <= next[1] ? (next[0] <= next[2] ? 0 : 2) : (next[1] <= next[2] ? 1 : 2);
+    if (!(next[a] <= end)) return;
+    cell[a] += step[a];
+    next[a] += delta[a];
+  }
+}
+
+// One scan point's ray: unit direction, weight (multiplier, confidence, angle) and the cos of the
+// angle between its normal and the ray (1 without a normal) that measures the depth behind it.
+struct PointRay {
+  Eigen::Vector3d direction;
+  double weight = 0, cos_angle = 1;
+};
+
+// False for a point that gives no samples (not finite, at its origin, beyond max_range, no
+// confidence, too grazing).
+bool point_ray(const ScanPoints& scan, std::size_t i, PointRay& ray) {
+  const Eigen::Vector3d& p = scan.positions[i];
+  if (!p.allFinite()) return false;
+  if (scan.sensor_direction) {
+    ray.direction = *scan.sensor_direction;
+  } else {
+    const Eigen::Vector3d v = p - (scan.origins.empty() ? *scan.sensor_origin : scan.origins[i]);
+    const double range = v.norm();
+    if (!(range > 0) || !std::isfinite(range)) return false;
+    if (scan.max_range > 0 && range > scan.max_range) return false;
+    ray.direction = v / range;
+  }
+  ray.weight = scan.multiplier;
+  if (scan.use_confidence && !scan.confidence.empty()) {
+    if (!(scan.confidence[i] > 0)) return false;
+    ray.weight *= scan.confidence[i];
+  }
+  ray.cos_angle = 1;
+  if (!scan.normals.empty()) {
+    const double cos_angle = std::abs(scan.normals[i].cast<double>().dot(ray.direction));
+    if (std::isfinite(cos_angle)) {
+      if (scan.use_angle && cos_angle < scan.min_cos) return false;
+      if (scan.use_angle) ray.weight *= cos_angle;
+      ray.cos_angle = std::max(cos_angle, scan.min_cos);
+    }
+  }
+  return true;
+}
+
+void check_scan_points(const ScanPoints& scan) {
+  const std::size_t n = scan.positions.size();
+  auto sized = [n](std::size_t size) { return size == 0 || size == n; };
+  if (!sized(scan.origins.size()) || !sized(scan.normals.size()) || !sized(scan.confidence.size()))
+    throw Error(ExitCode::internal, str(scan.name, ": scan point attributes differ in size"));
+  const int sensors = int(!scan.origins.empty()) + int(scan.sensor_origin.has_value()) +
+                      int(scan.sensor_direction.has_value());
+  if (sensors != 1)
+    throw UsageError(str(scan.name,
+                         ": scan points need exactly one of per-point origins, a sensor origin "
+                         "or a sensor direction"));
+}
+
 }  // namespace
 
 void TsdfVolume::integrate(const DepthFrame& frame) {
@@ -371,6 +451,63 @@ void TsdfVolume::integrate(const ScanSurface& scan) {
           }
         }
       });
+  drop_empty_leaves(g, origins);
+}
+
+void TsdfVolume::integrate(const ScanPoints& scan) {
+  check_scan_points(scan);
+  Grids& g = *grids_;
+  const double truncation = g.truncation;
+  const double inverse_voxel = 1.0 / voxel_size();
+  const std::size_t count = scan.positions.size();
+
+  std::vector<PointRay> rays(count);
+  std::vector<std::uint8_t> used(count, 0);
+  LeafCollector collector(voxel_size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i < r.end(); ++i) {
+      if (!point_ray(scan, i, rays[i])) continue;
+      used[i] = 1;
+      const Eigen::Vector3d start = scan.positions[i] - rays[i].direction * truncation;
+      Coord last_leaf = Coord::max();
+      for_each_crossed_voxel(start, rays[i].direction, 2 * truncation, inverse_voxel, [&](const Coord& c) {
+        const Coord leaf = c & ~(openvdb::FloatTree::LeafNodeType::DIM - 1);
+        if (leaf != last_leaf) collector.touch_voxel(leaf);
+        last_leaf = leaf;
+      });
+    }
+  });
+  const std::vector<Coord> origins = collector.leaf_origins();
+  check_memory(count_new_leaves(g, origins), scan.name);
+  allocate_leaves(g, origins);
+
+  // One thread, points in input order: the running means come out the same bits at any thread count.
+  const double voxel = voxel_size();
+  openvdb::FloatGrid::Accessor surface = g.surface->getAccessor(), weight = g.weight->getAccessor();
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!used[i]) continue;
+    const PointRay& ray = rays[i];
+    const Eigen::Vector3d& p = scan.positions[i];
+    const double along_point = p.dot(ray.direction);
+    const Eigen::Vector3d start = p - ray.direction * truncation;
+    Coord leaf_origin = Coord::max();
+    LeafSet leaves{};
+    for_each_crossed_voxel(start, ray.direction, 2 * truncation, inverse_voxel, [&](const Coord& c) {
+      const Coord origin = c & ~(openvdb::FloatTree::LeafNodeType::DIM - 1);
+      if (origin != leaf_origin) {
+        leaves.surface = surface.probeLeaf(c);
+        leaves.weight = weight.probeLeaf(c);
+        leaf_origin = origin;
+      }
+      // Positive in front of the point (towards the sensor), along the ray.
+      const double distance = along_point - Eigen::Vector3d(c.x(), c.y(), c.z()).dot(ray.direction) * voxel;
+      const double depth_behind = -std::min(0.0, distance * ray.cos_angle);
+      if (depth_behind >= truncation) return;
+      const float w = float(ray.weight * (1.0 - depth_behind / truncation));
+      accumulate(leaves, int(openvdb::FloatTree::LeafNodeType::coordToOffset(c)),
+                 float(std::clamp(distance, -truncation, truncation)), w);
+    });
+  }
   drop_empty_leaves(g, origins);
 }
 

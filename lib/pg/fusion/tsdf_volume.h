@@ -45,6 +45,10 @@ class TsdfVolume {
   void integrate(const DepthFrame& frame);
   // Integrates a scan along its sensor rays (a ray cast through each voxel near the scan).
   void integrate(const ScanSurface& scan);
+  // Integrates scan points, each along its own sensor ray: every voxel the ray crosses within the
+  // truncation band around the point gets the distance from the voxel centre to the point along the
+  // ray. Points are applied in input order on one thread, so the result does not depend on threads.
+  void integrate(const ScanPoints& points);
   // Adds a partial volume (same voxel size and truncation, else UsageError): the weighted mean of
   // both, as if all their inputs had been integrated into one volume.
   void merge_partial(const TsdfVolume& partial);
