@@ -21,7 +21,7 @@
 
 #include "pg/build_info.h"
 #include "pg/eval/camera_eval.h"
-#include "pg/sfm/orientation_error.h"
+#include "pg/eval/orientation_error.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/sfm_outputs.h"
 #include "pg/sfm/truth_import.h"
@@ -41,7 +41,7 @@ struct Outcome {
   bool ran = false;
   std::size_t registered = 0;
   double median_centre_percent = 0, median_rotation_deg = 0, focal_error_percent = 0, seconds = 0;
-  double median_orientation_deg = 0;  // orientation-aligned (pg/sfm/orientation_error.h)
+  double median_orientation_deg = 0;  // orientation-aligned (pg/eval/orientation_error.h)
 };
 
 double seconds_since(std::chrono::steady_clock::time_point start) {

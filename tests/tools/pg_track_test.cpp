@@ -9,7 +9,7 @@
 #include "pg/camera/cameras_io.h"
 #include "pg/eval/camera_eval.h"
 #include "pg/mesh/point_cloud.h"
-#include "pg/sfm/orientation_error.h"
+#include "pg/eval/orientation_error.h"
 #include "pg/testing/exif_writer.h"
 #include "pg/testing/testing.h"
 
@@ -67,7 +67,7 @@ TEST_F(PgTrack, OrbitWithExactIntrinsicsMeetsTheAccuracyTargets) {
   EXPECT_LT(eval.centre_error.median, 0.001 * extent);
   EXPECT_LT(eval.centre_error.max, 0.002 * extent);
   // The centre similarity also carries its own error into every rotation; the orientation-aligned
-  // error (pg/sfm/orientation_error.h) is each camera's own, held to the 0.05 degrees.
+  // error (pg/eval/orientation_error.h) is each camera's own, held to the 0.05 degrees.
   EXPECT_LT(eval.rotation_error_deg.median, 0.05);
   EXPECT_LT(eval.rotation_error_deg.max, 0.1);
   EXPECT_LT(orientation.back(), 0.05);

@@ -139,7 +139,9 @@ int main(int argc, char** argv) {
               {"centre_error_rms", r.centre_error.rms},
               {"rotation_error_deg_mean", r.rotation_error_deg.mean},
               {"rotation_error_deg_median", r.rotation_error_deg.median},
-              {"rotation_error_deg_max", r.rotation_error_deg.max}});
+              {"rotation_error_deg_max", r.rotation_error_deg.max},
+              {"orientation_error_deg_median", r.orientation_error_deg.median},
+              {"orientation_error_deg_max", r.orientation_error_deg.max}});
     } else if (depth->parsed()) {
       declare_files(frame, depth_files);
       pg::DepthMap estimate = pg::read_depth_exr(depth_files.estimate);

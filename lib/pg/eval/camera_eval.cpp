@@ -1,5 +1,7 @@
 #include "pg/eval/camera_eval.h"
 
+#include "pg/eval/orientation_error.h"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -8,6 +10,7 @@
 
 #include "pg/core/error.h"
 #include "pg/core/log.h"
+#include "pg/eval/orientation_error.h"
 #include "pg/geometry/similarity.h"
 
 namespace pg {
@@ -99,8 +102,13 @@ CameraEvalResult evaluate_cameras(const CameraSet& estimate, const CameraSet& tr
     if (error.principal_point_error_px) principal.push_back(*error.principal_point_error_px);
     result.cameras.push_back(std::move(error));
   }
+  std::vector<double> orientation = orientation_aligned_rotation_errors_deg(estimate, truth);
+  if (orientation.size() == result.cameras.size())
+    for (std::size_t k = 0; k < orientation.size(); ++k)
+      result.cameras[k].orientation_error_deg = orientation[k];
   result.centre_error = summarize(centre);
   result.rotation_error_deg = summarize(rotation);
+  result.orientation_error_deg = summarize(orientation);
   result.focal_relative_error = summarize(focal);
   result.principal_point_error_px = summarize(principal);
   return result;
@@ -109,8 +117,10 @@ CameraEvalResult evaluate_cameras(const CameraSet& estimate, const CameraSet& tr
 nlohmann::json CameraEvalResult::to_json() const {
   nlohmann::json cams = nlohmann::json::array();
   for (const CameraError& c : cameras) {
-    nlohmann::json j = {
-        {"id", c.id}, {"centre_error", c.centre_error}, {"rotation_error_deg", c.rotation_error_deg}};
+    nlohmann::json j = {{"id", c.id},
+                        {"centre_error", c.centre_error},
+                        {"rotation_error_deg", c.rotation_error_deg},
+                        {"orientation_error_deg", c.orientation_error_deg}};
     j["focal_relative_error"] = c.focal_relative_error ? json_number(*c.focal_relative_error) : nullptr;
     j["principal_point_error_px"] =
         c.principal_point_error_px ? json_number(*c.principal_point_error_px) : nullptr;
@@ -129,6 +139,7 @@ nlohmann::json CameraEvalResult::to_json() const {
       {"extra_in_estimate", extra_in_estimate},
       {"centre_error", centre_error.to_json()},
       {"rotation_error_deg", rotation_error_deg.to_json()},
+      {"orientation_error_deg", orientation_error_deg.to_json()},
       {"focal_relative_error", focal_relative_error.to_json()},
       {"principal_point_error_px", principal_point_error_px.to_json()},
       {"cameras", std::move(cams)},
@@ -147,7 +158,9 @@ std::string CameraEvalResult::to_text() const {
   text += str(". Centre error mean ", centre_error.mean, ", median ", centre_error.median, ", max ",
               centre_error.max, ", RMS ", centre_error.rms, " (truth units). Rotation error mean ",
               rotation_error_deg.mean, " deg, median ", rotation_error_deg.median, " deg, max ",
-              rotation_error_deg.max, " deg, RMS ", rotation_error_deg.rms, " deg.");
+              rotation_error_deg.max, " deg, RMS ", rotation_error_deg.rms,
+              " deg. Orientation-aligned rotation error median ", orientation_error_deg.median, " deg, max ",
+              orientation_error_deg.max, " deg.");
   if (focal_relative_error.count > 0)
     text += str(" Focal relative error mean ", focal_relative_error.mean, ", max ", focal_relative_error.max,
                 "; principal point error mean ", principal_point_error_px.mean, " px over ",

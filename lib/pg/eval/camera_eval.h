@@ -29,8 +29,9 @@ struct CameraEvalOptions {
 
 struct CameraError {
   std::string id;
-  double centre_error = 0;                     // truth units, after alignment
-  double rotation_error_deg = 0;               // angle of R_estimate_aligned * R_truth^T
+  double centre_error = 0;           // truth units, after alignment
+  double rotation_error_deg = 0;     // angle of R_estimate_aligned * R_truth^T
+  double orientation_error_deg = 0;  // the same after the orientation-only alignment (orientation_error.h)
   std::optional<double> focal_relative_error;  // max(|fx/fx* - 1|, |fy/fy* - 1|)
   std::optional<double> principal_point_error_px;
 };
@@ -41,6 +42,9 @@ struct CameraEvalResult {
   std::size_t aligned_on = 0;        // cameras the alignment was computed from
   std::vector<CameraError> cameras;  // matched cameras, in truth order
   ErrorStats centre_error, rotation_error_deg;
+  // Each camera's own orientation error, free of the centre similarity's rotation error (which tilts
+  // every camera alike on nearly collinear paths): see orientation_error.h.
+  ErrorStats orientation_error_deg;
   ErrorStats focal_relative_error, principal_point_error_px;  // over cameras where both have intrinsics
   std::vector<std::string> missing_in_estimate;               // truth ids the estimate lacks
   std::vector<std::string> extra_in_estimate;                 // estimate ids the truth lacks

@@ -109,6 +109,14 @@ TEST(EvaluateCameras, ReportsAKnownRotationAndFocalError) {
   EXPECT_NEAR(*r.cameras[4].focal_relative_error, 0.01, 1e-12);
   EXPECT_NEAR(*r.cameras[4].principal_point_error_px, 5, 1e-12);
   EXPECT_NEAR(r.focal_relative_error.max, 0.01, 1e-12);
+  // The orientation-only alignment absorbs a share of the one rolled camera, so its own error stays
+  // near but under 2 degrees, and the others' near zero; reported per camera and summarised.
+  ASSERT_EQ(r.orientation_error_deg.count, truth.cameras.size());
+  EXPECT_GT(r.cameras[2].orientation_error_deg, 1.5);
+  EXPECT_LT(r.cameras[2].orientation_error_deg, 2.0 + 1e-9);
+  EXPECT_NEAR(r.orientation_error_deg.max, r.cameras[2].orientation_error_deg, 1e-12);
+  EXPECT_LT(r.cameras[0].orientation_error_deg, 0.5);
+  EXPECT_TRUE(r.to_json().contains("orientation_error_deg"));
 }
 
 TEST(EvaluateCameras, ComparesIntrinsicsAcrossResolutions) {

@@ -9,7 +9,7 @@
 #include <iostream>
 
 #include "pg/eval/camera_eval.h"
-#include "pg/sfm/orientation_error.h"
+#include "pg/eval/orientation_error.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/truth_import.h"
 #include "pg/testing/testing.h"

@@ -8,7 +8,7 @@
 #include "pg/core/log.h"
 #include "pg/eval/camera_eval.h"
 #include "pg/sfm/bundle_adjustment.h"
-#include "pg/sfm/orientation_error.h"
+#include "pg/eval/orientation_error.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/sfm_outputs.h"
 #include "pg/sfm/truth_import.h"

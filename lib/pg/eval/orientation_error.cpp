@@ -1,4 +1,4 @@
-#include "pg/sfm/orientation_error.h"
+#include "pg/eval/orientation_error.h"
 
 #include <Eigen/Geometry>
 #include <cmath>
