@@ -1,6 +1,8 @@
 // Accelerated backend benchmark: the CPU reference against the OpenCL kernels (PoCL on a machine
 // without a GPU, the GPU's driver where there is one), on the same inputs:
 //   flow:  one warp of the flow solver's inner iterations (5 fixed-point x 10 SOR sweeps) at 1536x1024;
+//   solver: the whole flow solver (pg::compute_flow, every pyramid level, inner iterations on the
+//          device as pg-depth --device runs them) on one 1024x768 pair, free and epipolar mode;
 //   tsdf:  one 640x480 depth frame of a sphere into ~1.9 M voxels of dense 8^3 blocks.
 // Prints each path's time, the ratio and the largest difference (which the tests bound).
 // The rasterizer has no OpenCL kernel yet, so it is not timed here.
@@ -8,8 +10,11 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <opencv2/imgproc.hpp>
 #include <string>
+#include <vector>
 
+#include "pg/flow/flow.h"
 #include "pg/gpu/device.h"
 #include "pg/gpu/flow_increments.h"
 #include "pg/gpu/tsdf_blocks.h"
@@ -70,6 +75,69 @@ void report(const char* name, double cpu, double opencl, double difference) {
               opencl, cpu / opencl, difference);
 }
 
+// A textured 1024x768 pair, the second image moved right by a smooth 1 to 5 pixels (a valid pair for
+// both modes: horizontal epipolar lines).
+std::pair<cv::Mat3b, cv::Mat3b> solver_pair() {
+  const cv::Size size(1024, 768);
+  cv::Mat3f noise(size);
+  cv::RNG rng(11);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(noise, noise, {0, 0}, 2.0);
+  cv::Mat3b from, to;
+  cv::normalize(noise, noise, 0, 255, cv::NORM_MINMAX);
+  noise.convertTo(from, CV_8U);
+  cv::Mat1f map_x(size), map_y(size);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      map_x(y, x) = float(x) - (3.f + 2.f * std::sin(0.006f * float(x)));
+      map_y(y, x) = float(y);
+    }
+  cv::remap(from, to, map_x, map_y, cv::INTER_CUBIC, cv::BORDER_REFLECT);
+  return {from, to};
+}
+
+// Per-pixel distance between two flows.
+cv::Mat1f end_point_distance(const cv::Mat2f& a, const cv::Mat2f& b) {
+  std::vector<cv::Mat> parts;
+  cv::split(cv::Mat(a - b), parts);
+  cv::Mat1f distance;
+  cv::magnitude(parts[0], parts[1], distance);
+  return distance;
+}
+
+// The whole solver on `kind`, once to warm up (kernel compilation) and once timed.
+double solver_time(pg::gpu::DeviceKind kind, const std::function<cv::Mat2f()>& solve, cv::Mat2f& flow) {
+  pg::gpu::set_requested_device(kind);
+  const double seconds = best_time(1, [&] { flow = solve(); });
+  pg::gpu::set_requested_device(pg::gpu::DeviceKind::automatic);
+  return seconds;
+}
+
+// The whole flow solver on the CPU, on OpenCL and (where built and present) on CUDA.
+void bench_solver() {
+  const auto [from, to] = solver_pair();
+  const pg::EpipolarField field{cv::Mat2f(from.size(), cv::Vec2f(0, 0)),
+                                cv::Mat2f(from.size(), cv::Vec2f(1, 0))};
+  const std::pair<const char*, std::function<cv::Mat2f()>> modes[] = {
+      {"free", [&] { return pg::compute_flow(from, to); }},
+      {"epipolar", [&] { return pg::compute_epipolar_flow(from, to, field).flow; }}};
+  for (const auto& [mode, solve] : modes) {
+    cv::Mat2f cpu_flow, device_flow;
+    const double cpu = solver_time(pg::gpu::DeviceKind::cpu, solve, cpu_flow);
+    const double opencl = solver_time(pg::gpu::DeviceKind::opencl, solve, device_flow);
+    const double epe = cv::mean(end_point_distance(cpu_flow, device_flow))[0];
+    std::printf(
+        "solver %-8s 1024x768 cpu %7.3f s   opencl %7.3f s   cpu/opencl %6.2fx   mean |cpu - opencl| %.2e "
+        "px\n",
+        mode, cpu, opencl, cpu / opencl, epe);
+    if (!pg::gpu::cuda_unavailable_reason().empty()) continue;
+    const double cuda = solver_time(pg::gpu::DeviceKind::cuda, solve, device_flow);
+    std::printf(
+        "solver %-8s 1024x768 cpu %7.3f s   cuda   %7.3f s   cpu/cuda   %6.2fx   mean |cpu - cuda| %.2e px\n",
+        mode, cpu, cuda, cpu / cuda, cv::mean(end_point_distance(cpu_flow, device_flow))[0]);
+  }
+}
+
 }  // namespace
 
 int main() {
@@ -99,5 +167,7 @@ int main() {
   for (std::size_t i = 0; i < cpu.distance.size(); ++i)
     difference = std::max(difference, double(std::abs(cpu.distance[i] - cl.distance[i])));
   report("tsdf", tsdf_cpu, tsdf_cl, difference);
+
+  bench_solver();
   return 0;
 }

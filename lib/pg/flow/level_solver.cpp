@@ -10,6 +10,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "pg/core/error.h"
+#include "pg/core/log.h"
 #include "pg/image/pyramid.h"
 
 namespace pg::flow_detail {
@@ -358,56 +360,83 @@ RowWeights LevelSolver::row_weights(int y) const {
   return {weight_right_[y], weight_down_[y], y > 0 ? weight_down_[y - 1] : zero_row_.data()};
 }
 
+namespace {
+
+// The device kernels take continuous planes; a view into a larger matrix is copied.
+cv::Mat1f continuous(const cv::Mat1f& m) {
+  return m.isContinuous() ? m : cv::Mat1f(m.clone());
+}
+
+// Runs a device step; a device failure (out of device memory, a driver error) is not fatal: the
+// caller solves the level on the CPU instead, after a warning.
+template <class Step>
+bool run_on_device(const Step& step) {
+  try {
+    step();
+    return true;
+  } catch (const FailedError& e) {
+    log::warn(e.what(), "; solving the rest of this level on the CPU");
+    return false;
+  }
+}
+
+}  // namespace
+
+bool LevelSolver::use_device(gpu::IncrementMode mode) const {
+  if (gpu::active_device() == gpu::DeviceKind::cpu) return false;
+  // In the epipolar mode a CUDA request runs the OpenCL kernel (line_increments); both see the same
+  // GPU, so the CUDA device's limits stand in for it.
+  const gpu::DeviceInfo device = gpu::active_device_info();
+  const gpu::DeviceFootprint need = gpu::increments_footprint(images_.size(), mode);
+  if (gpu::fits_on(need, device)) return true;
+  log::info("flow: a ", cols_, "x", rows_, " level needs ", need.total >> 20, " MiB (largest buffer ",
+            need.largest_buffer >> 20, " MiB) but ", device.name, " has ", device.global_memory >> 20,
+            " MiB (largest allocation ", device.max_allocation >> 20, " MiB); solving it on the CPU");
+  return false;
+}
+
+gpu::FlowIncrementOptions LevelSolver::increment_options() const {
+  gpu::FlowIncrementOptions o;
+  o.epsilon = static_cast<float>(options_.epsilon);
+  o.delta = static_cast<float>(options_.delta);
+  o.gamma = static_cast<float>(options_.gamma);
+  o.omega = static_cast<float>(options_.sor_omega);
+  o.fixed_point_iterations = options_.fixed_point_iterations;
+  o.sor_iterations = options_.sor_iterations;
+  return o;
+}
+
+bool LevelSolver::device_increments(const cv::Mat1f& u, const cv::Mat1f& v) {
+  gpu::FlowIncrementInput in;
+  in.brightness = {continuous(b11_), continuous(b12_), continuous(b22_),
+                   continuous(b13_), continuous(b23_), continuous(b33_)};
+  in.gradient = {continuous(g11_), continuous(g12_), continuous(g22_),
+                 continuous(g13_), continuous(g23_), continuous(g33_)};
+  in.smoothness = continuous(images_.smoothness);
+  in.u = continuous(u), in.v = continuous(v);
+  in.options = increment_options();
+  return run_on_device([&] { gpu::flow_increments(in, du_, dv_); });
+}
+
+bool LevelSolver::device_line_increments(const cv::Mat1f& s, const cv::Mat2f& direction) {
+  gpu::LineIncrementInput in;
+  in.brightness = {continuous(b11_), continuous(b12_), continuous(b22_),
+                   continuous(b13_), continuous(b23_), continuous(b33_)};
+  in.gradient = {continuous(g11_), continuous(g12_), continuous(g22_),
+                 continuous(g13_), continuous(g23_), continuous(g33_)};
+  in.smoothness = continuous(images_.smoothness);
+  in.s = continuous(s);
+  in.direction = direction.isContinuous() ? direction : cv::Mat2f(direction.clone());
+  in.options = increment_options();
+  return run_on_device([&] { gpu::line_increments(in, du_); });
+}
+
 void LevelSolver::solve(cv::Mat1f& u, cv::Mat1f& v) {
-  const float epsilon_squared = static_cast<float>(options_.epsilon * options_.epsilon);
-  const float delta = static_cast<float>(options_.delta), gamma = static_cast<float>(options_.gamma);
-  const float omega = static_cast<float>(options_.sor_omega);
-  const float damping = 1e-6f;  // keeps the diagonal positive where data and smoothness both vanish
+  bool on_device = use_device(gpu::IncrementMode::free);
   for (int warp = 0; warp < options_.warps; ++warp) {
     compute_tensors(u, v);
-    du_.setTo(0);
-    dv_.setTo(0);
-    split_du_.set_zero();
-    split_dv_.set_zero();
-    for (int iteration = 0; iteration < options_.fixed_point_iterations; ++iteration) {
-      compute_smoothness(u, du_, v, dv_);
-      // The linear system of this iteration, robust weights frozen (lagged nonlinearity).
-      for_rows(rows_, cols_, [&](int y) {
-        const RowWeights w = row_weights(y);
-        const float *b11 = b11_[y], *b12 = b12_[y], *b22 = b22_[y], *b13 = b13_[y], *b23 = b23_[y],
-                    *b33 = b33_[y];
-        const float *g11 = g11_[y], *g12 = g12_[y], *g22 = g22_[y], *g13 = g13_[y], *g23 = g23_[y],
-                    *g33 = g33_[y];
-        const float *du_row = du_[y], *dv_row = dv_[y], *u_row = u[y], *v_row = v[y];
-        float* a11_inv[2] = {a11_inv_.row(0, y), a11_inv_.row(1, y)};
-        float* a22_inv[2] = {a22_inv_.row(0, y), a22_inv_.row(1, y)};
-        float* a12[2] = {a12_.row(0, y), a12_.row(1, y)};
-        float* rhs1[2] = {rhs1_.row(0, y), rhs1_.row(1, y)};
-        float* rhs2[2] = {rhs2_.row(0, y), rhs2_.row(1, y)};
-        for (int x = 0; x < cols_; ++x) {
-          const int parity = x & 1, k = x >> 1;
-          const float du = du_row[x], dv = dv_row[x];
-          const float psi_b = robust_weight(
-              delta, quadratic(b11[x], b12[x], b22[x], b13[x], b23[x], b33[x], du, dv), epsilon_squared);
-          const float psi_g = robust_weight(
-              gamma, quadratic(g11[x], g12[x], g22[x], g13[x], g23[x], g33[x], du, dv), epsilon_squared);
-          const float total = w.total(x);
-          a11_inv[parity][k] = 1.f / (psi_b * b11[x] + psi_g * g11[x] + total + damping);
-          a22_inv[parity][k] = 1.f / (psi_b * b22[x] + psi_g * g22[x] + total + damping);
-          a12[parity][k] = psi_b * b12[x] + psi_g * g12[x];
-          rhs1[parity][k] =
-              weighted_neighbours(u, w, y, x) - total * u_row[x] - (psi_b * b13[x] + psi_g * g13[x]);
-          rhs2[parity][k] =
-              weighted_neighbours(v, w, y, x) - total * v_row[x] - (psi_b * b23[x] + psi_g * g23[x]);
-        }
-      });
-      // Red-black: pixels of one colour only depend on the other, so rows run in parallel and the
-      // result does not depend on the thread count.
-      for (int sweep = 0; sweep < options_.sor_iterations; ++sweep)
-        for (int colour = 0; colour < 2; ++colour) sor_half_sweep(colour, omega, split_du_, &split_dv_);
-      split_du_.merge_into(du_);
-      split_dv_.merge_into(dv_);
-    }
+    on_device = on_device && device_increments(u, v);
+    if (!on_device) cpu_increments(u, v);
     u += du_;
     v += dv_;
     median_filter(u);
@@ -415,11 +444,58 @@ void LevelSolver::solve(cv::Mat1f& u, cv::Mat1f& v) {
   }
 }
 
-void LevelSolver::solve_along(cv::Mat1f& s, const cv::Mat2f& base, const cv::Mat2f& direction) {
+void LevelSolver::cpu_increments(const cv::Mat1f& u, const cv::Mat1f& v) {
   const float epsilon_squared = static_cast<float>(options_.epsilon * options_.epsilon);
   const float delta = static_cast<float>(options_.delta), gamma = static_cast<float>(options_.gamma);
   const float omega = static_cast<float>(options_.sor_omega);
   const float damping = 1e-6f;  // keeps the diagonal positive where data and smoothness both vanish
+  du_.setTo(0);
+  dv_.setTo(0);
+  split_du_.set_zero();
+  split_dv_.set_zero();
+  for (int iteration = 0; iteration < options_.fixed_point_iterations; ++iteration) {
+    compute_smoothness(u, du_, v, dv_);
+    // The linear system of this iteration, robust weights frozen (lagged nonlinearity).
+    for_rows(rows_, cols_, [&](int y) {
+      const RowWeights w = row_weights(y);
+      const float *b11 = b11_[y], *b12 = b12_[y], *b22 = b22_[y], *b13 = b13_[y], *b23 = b23_[y],
+                  *b33 = b33_[y];
+      const float *g11 = g11_[y], *g12 = g12_[y], *g22 = g22_[y], *g13 = g13_[y], *g23 = g23_[y],
+                  *g33 = g33_[y];
+      const float *du_row = du_[y], *dv_row = dv_[y], *u_row = u[y], *v_row = v[y];
+      float* a11_inv[2] = {a11_inv_.row(0, y), a11_inv_.row(1, y)};
+      float* a22_inv[2] = {a22_inv_.row(0, y), a22_inv_.row(1, y)};
+      float* a12[2] = {a12_.row(0, y), a12_.row(1, y)};
+      float* rhs1[2] = {rhs1_.row(0, y), rhs1_.row(1, y)};
+      float* rhs2[2] = {rhs2_.row(0, y), rhs2_.row(1, y)};
+      for (int x = 0; x < cols_; ++x) {
+        const int parity = x & 1, k = x >> 1;
+        const float du = du_row[x], dv = dv_row[x];
+        const float psi_b = robust_weight(
+            delta, quadratic(b11[x], b12[x], b22[x], b13[x], b23[x], b33[x], du, dv), epsilon_squared);
+        const float psi_g = robust_weight(
+            gamma, quadratic(g11[x], g12[x], g22[x], g13[x], g23[x], g33[x], du, dv), epsilon_squared);
+        const float total = w.total(x);
+        a11_inv[parity][k] = 1.f / (psi_b * b11[x] + psi_g * g11[x] + total + damping);
+        a22_inv[parity][k] = 1.f / (psi_b * b22[x] + psi_g * g22[x] + total + damping);
+        a12[parity][k] = psi_b * b12[x] + psi_g * g12[x];
+        rhs1[parity][k] =
+            weighted_neighbours(u, w, y, x) - total * u_row[x] - (psi_b * b13[x] + psi_g * g13[x]);
+        rhs2[parity][k] =
+            weighted_neighbours(v, w, y, x) - total * v_row[x] - (psi_b * b23[x] + psi_g * g23[x]);
+      }
+    });
+    // Red-black: pixels of one colour only depend on the other, so rows run in parallel and the
+    // result does not depend on the thread count.
+    for (int sweep = 0; sweep < options_.sor_iterations; ++sweep)
+      for (int colour = 0; colour < 2; ++colour) sor_half_sweep(colour, omega, split_du_, &split_dv_);
+    split_du_.merge_into(du_);
+    split_dv_.merge_into(dv_);
+  }
+}
+
+void LevelSolver::solve_along(cv::Mat1f& s, const cv::Mat2f& base, const cv::Mat2f& direction) {
+  bool on_device = use_device(gpu::IncrementMode::line);
   cv::Mat1f u(rows_, cols_), v(rows_, cols_);
   cv::Mat1f& ds = du_;  // the increment of s; dv_ is unused in this mode
   for (int warp = 0; warp < options_.warps; ++warp) {
@@ -432,46 +508,54 @@ void LevelSolver::solve_along(cv::Mat1f& s, const cv::Mat2f& base, const cv::Mat
       }
     });
     compute_tensors(u, v);
-    ds.setTo(0);
-    split_du_.set_zero();
-    for (int iteration = 0; iteration < options_.fixed_point_iterations; ++iteration) {
-      compute_smoothness(s, ds, cv::Mat1f(), cv::Mat1f());
-      for_rows(rows_, cols_, [&](int y) {
-        const RowWeights w = row_weights(y);
-        const cv::Vec2f* directions = direction[y];
-        const float* ds_row = ds[y];
-        float* a_inv[2] = {a11_inv_.row(0, y), a11_inv_.row(1, y)};
-        float* rhs[2] = {rhs1_.row(0, y), rhs1_.row(1, y)};
-        for (int x = 0; x < cols_; ++x) {
-          const cv::Vec2f d = directions[x];
-          const float dx = std::isfinite(d[0]) ? d[0] : 0.f, dy = std::isfinite(d[1]) ? d[1] : 0.f;
-          const float du = ds_row[x] * dx, dv = ds_row[x] * dy;
-          const float psi_b = robust_weight(
-              delta,
-              quadratic(b11_(y, x), b12_(y, x), b22_(y, x), b13_(y, x), b23_(y, x), b33_(y, x), du, dv),
-              epsilon_squared);
-          const float psi_g = robust_weight(
-              gamma,
-              quadratic(g11_(y, x), g12_(y, x), g22_(y, x), g13_(y, x), g23_(y, x), g33_(y, x), du, dv),
-              epsilon_squared);
-          // The 2-D system projected on the line direction d: d^T A d ds = -d^T c.
-          const float a11 = psi_b * b11_(y, x) + psi_g * g11_(y, x),
-                      a12 = psi_b * b12_(y, x) + psi_g * g12_(y, x);
-          const float a22 = psi_b * b22_(y, x) + psi_g * g22_(y, x);
-          const float c1 = psi_b * b13_(y, x) + psi_g * g13_(y, x),
-                      c2 = psi_b * b23_(y, x) + psi_g * g23_(y, x);
-          const float total = w.total(x);
-          const int parity = x & 1, k = x >> 1;
-          a_inv[parity][k] = 1.f / (dx * dx * a11 + 2 * dx * dy * a12 + dy * dy * a22 + total + damping);
-          rhs[parity][k] = weighted_neighbours(s, w, y, x) - total * s(y, x) - (dx * c1 + dy * c2);
-        }
-      });
-      for (int sweep = 0; sweep < options_.sor_iterations; ++sweep)
-        for (int colour = 0; colour < 2; ++colour) sor_half_sweep(colour, omega, split_du_, nullptr);
-      split_du_.merge_into(ds);
-    }
+    on_device = on_device && device_line_increments(s, direction);
+    if (!on_device) cpu_line_increments(s, direction);
     s += ds;
     median_filter(s);
+  }
+}
+
+void LevelSolver::cpu_line_increments(const cv::Mat1f& s, const cv::Mat2f& direction) {
+  const float epsilon_squared = static_cast<float>(options_.epsilon * options_.epsilon);
+  const float delta = static_cast<float>(options_.delta), gamma = static_cast<float>(options_.gamma);
+  const float omega = static_cast<float>(options_.sor_omega);
+  const float damping = 1e-6f;  // keeps the diagonal positive where data and smoothness both vanish
+  cv::Mat1f& ds = du_;
+  ds.setTo(0);
+  split_du_.set_zero();
+  for (int iteration = 0; iteration < options_.fixed_point_iterations; ++iteration) {
+    compute_smoothness(s, ds, cv::Mat1f(), cv::Mat1f());
+    for_rows(rows_, cols_, [&](int y) {
+      const RowWeights w = row_weights(y);
+      const cv::Vec2f* directions = direction[y];
+      const float* ds_row = ds[y];
+      float* a_inv[2] = {a11_inv_.row(0, y), a11_inv_.row(1, y)};
+      float* rhs[2] = {rhs1_.row(0, y), rhs1_.row(1, y)};
+      for (int x = 0; x < cols_; ++x) {
+        const cv::Vec2f d = directions[x];
+        const float dx = std::isfinite(d[0]) ? d[0] : 0.f, dy = std::isfinite(d[1]) ? d[1] : 0.f;
+        const float du = ds_row[x] * dx, dv = ds_row[x] * dy;
+        const float psi_b = robust_weight(
+            delta, quadratic(b11_(y, x), b12_(y, x), b22_(y, x), b13_(y, x), b23_(y, x), b33_(y, x), du, dv),
+            epsilon_squared);
+        const float psi_g = robust_weight(
+            gamma, quadratic(g11_(y, x), g12_(y, x), g22_(y, x), g13_(y, x), g23_(y, x), g33_(y, x), du, dv),
+            epsilon_squared);
+        // The 2-D system projected on the line direction d: d^T A d ds = -d^T c.
+        const float a11 = psi_b * b11_(y, x) + psi_g * g11_(y, x),
+                    a12 = psi_b * b12_(y, x) + psi_g * g12_(y, x);
+        const float a22 = psi_b * b22_(y, x) + psi_g * g22_(y, x);
+        const float c1 = psi_b * b13_(y, x) + psi_g * g13_(y, x),
+                    c2 = psi_b * b23_(y, x) + psi_g * g23_(y, x);
+        const float total = w.total(x);
+        const int parity = x & 1, k = x >> 1;
+        a_inv[parity][k] = 1.f / (dx * dx * a11 + 2 * dx * dy * a12 + dy * dy * a22 + total + damping);
+        rhs[parity][k] = weighted_neighbours(s, w, y, x) - total * s(y, x) - (dx * c1 + dy * c2);
+      }
+    });
+    for (int sweep = 0; sweep < options_.sor_iterations; ++sweep)
+      for (int colour = 0; colour < 2; ++colour) sor_half_sweep(colour, omega, split_du_, nullptr);
+    split_du_.merge_into(ds);
   }
 }
 

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "pg/flow/flow.h"
+#include "pg/gpu/flow_increments.h"
 
 namespace pg::flow_detail {
 
@@ -50,7 +51,9 @@ LevelImages prepare_level(const std::vector<cv::Mat1f>& from, const std::vector<
                           const FlowOptions& options);
 
 // Solves one level: warps, lagged fixed-point iterations and red-black SOR. Buffers are allocated
-// once per level; the per-pixel loops allocate nothing.
+// once per level; the per-pixel loops allocate nothing. With an accelerated device active
+// (pg/gpu/device.h) each warp's fixed-point iterations run there (pg/gpu/flow_increments.h), in both
+// modes, when the level fits the device's memory; the warp, the tensors and the median stay here.
 class LevelSolver {
  public:
   LevelSolver(const LevelImages& images, const FlowOptions& options);
@@ -61,6 +64,17 @@ class LevelSolver {
   void solve_along(cv::Mat1f& s, const cv::Mat2f& base, const cv::Mat2f& direction);
 
  private:
+  // Whether this level's increments run on the active accelerated device: one is active and the
+  // level fits its memory (else the CPU reference, with a one-line notice).
+  bool use_device(gpu::IncrementMode mode) const;
+  // One warp's increments du_, dv_ (free mode) from the current tensors, on the CPU or the device
+  // (false when the device failed: the caller falls back to the CPU).
+  void cpu_increments(const cv::Mat1f& u, const cv::Mat1f& v);
+  bool device_increments(const cv::Mat1f& u, const cv::Mat1f& v);
+  // The same for the epipolar mode: the increment of s, in du_.
+  void cpu_line_increments(const cv::Mat1f& s, const cv::Mat2f& direction);
+  bool device_line_increments(const cv::Mat1f& s, const cv::Mat2f& direction);
+  gpu::FlowIncrementOptions increment_options() const;
   // Warps `to` by (u, v) and fills the per-pixel motion tensors (blurred in CLG mode).
   void compute_tensors(const cv::Mat1f& u, const cv::Mat1f& v);
   // Smoothness edge weights from the gradient of a + da (and b + db when b is non-empty).

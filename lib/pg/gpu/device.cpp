@@ -16,37 +16,40 @@ std::atomic<DeviceKind> requested{DeviceKind::automatic};
 struct Resolution {
   DeviceKind active = DeviceKind::cpu;
   std::string description = "cpu";
+  DeviceInfo info;
 };
 
-bool opencl_usable(bool gpu_only, std::string& description) {
+bool opencl_usable(bool gpu_only, Resolution& r) {
 #if PG_GPU_HAVE_OPENCL
   auto* runtime = detail::OpenClRuntime::get();
   if (!runtime || (gpu_only && !runtime->info().is_gpu)) return false;
-  description = str("opencl (", runtime->info().platform, ": ", runtime->info().name, ")");
+  r.description = str("opencl (", runtime->info().platform, ": ", runtime->info().name, ")");
+  r.info = runtime->info();
   return true;
 #else
   (void)gpu_only;
-  (void)description;
+  (void)r;
   return false;
 #endif
 }
 
-bool cuda_usable(std::string& description) {
+bool cuda_usable(Resolution& r) {
   std::string reason;
   const auto devices = detail::cuda_devices(reason);
   if (devices.empty()) return false;
-  description = str("cuda (", devices.front().name, ")");
+  r.description = str("cuda (", devices.front().name, ")");
+  r.info = devices.front();
   return true;
 }
 
 Resolution resolve(DeviceKind kind) {
   Resolution r;
   if (kind == DeviceKind::cpu) return r;
-  if ((kind == DeviceKind::cuda || kind == DeviceKind::automatic) && cuda_usable(r.description)) {
+  if ((kind == DeviceKind::cuda || kind == DeviceKind::automatic) && cuda_usable(r)) {
     r.active = DeviceKind::cuda;
     return r;
   }
-  if (opencl_usable(kind == DeviceKind::automatic, r.description)) {
+  if (opencl_usable(kind == DeviceKind::automatic, r)) {
     r.active = DeviceKind::opencl;
     if (kind == DeviceKind::cuda)
       log::warn("--device cuda: ", cuda_unavailable_reason(), "; using ", r.description, " instead");
@@ -134,6 +137,9 @@ DeviceKind active_device() {
 }
 std::string describe_active_device() {
   return current().description;
+}
+DeviceInfo active_device_info() {
+  return current().info;
 }
 
 bool device_resolved() {

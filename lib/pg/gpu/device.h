@@ -40,6 +40,9 @@ DeviceKind requested_device();
 DeviceKind active_device();
 // One line for logs and reports: "opencl (NVIDIA CUDA: NVIDIA A40)", "cpu".
 std::string describe_active_device();
+// The active device's properties (memory limits for stages that size their uploads); on the CPU a
+// default DeviceInfo (kind cpu, no memory figures).
+DeviceInfo active_device_info();
 // Whether a stage has asked for the active device since the last request (the CLI frame reports
 // the device only then, so tools without accelerated stages never initialise a driver).
 bool device_resolved();

@@ -42,13 +42,32 @@ struct Weights {
   }
 };
 
+bool tensors_fit(const std::array<cv::Mat1f, 6>& brightness, const std::array<cv::Mat1f, 6>& gradient,
+                 const cv::Mat1f& smoothness, cv::Size size) {
+  bool ok = size.area() > 0 && smoothness.size() == size && smoothness.isContinuous();
+  for (const auto* set : {&brightness, &gradient})
+    for (const cv::Mat1f& m : *set) ok = ok && m.size() == size && m.isContinuous();
+  return ok;
+}
+
 void check_input(const FlowIncrementInput& in) {
   const cv::Size size = in.size();
-  bool ok = !in.u.empty() && in.v.size() == size && in.smoothness.size() == size;
-  for (const auto* set : {&in.brightness, &in.gradient})
-    for (const cv::Mat1f& m : *set) ok = ok && m.size() == size && m.isContinuous();
-  if (!ok || !in.u.isContinuous() || !in.v.isContinuous() || !in.smoothness.isContinuous())
+  if (!tensors_fit(in.brightness, in.gradient, in.smoothness, size) || in.v.size() != size ||
+      !in.u.isContinuous() || !in.v.isContinuous())
     throw UsageError("flow increments: tensors, smoothness and flow must be continuous and of one size");
+}
+
+void check_input(const LineIncrementInput& in) {
+  const cv::Size size = in.size();
+  if (!tensors_fit(in.brightness, in.gradient, in.smoothness, size) || in.direction.size() != size ||
+      !in.s.isContinuous() || !in.direction.isContinuous())
+    throw UsageError(
+        "line increments: tensors, smoothness, s and direction must be continuous and of one size");
+}
+
+// A non-finite direction component counts as 0: the pixel has no data term along its line.
+inline float finite_or_zero(float value) {
+  return std::isfinite(value) ? value : 0.f;
 }
 
 }  // namespace
@@ -119,6 +138,77 @@ void flow_increments_cpu(const FlowIncrementInput& in, cv::Mat1f& du, cv::Mat1f&
           }
         });
   }
+}
+
+void line_increments_cpu(const LineIncrementInput& in, cv::Mat1f& ds) {
+  check_input(in);
+  const int rows = in.s.rows, cols = in.s.cols;
+  const FlowIncrementOptions& o = in.options;
+  const float epsilon_squared = o.epsilon * o.epsilon, omega = o.omega;
+  const float damping = 1e-6f;
+  ds.create(rows, cols);
+  ds.setTo(0);
+  cv::Mat1f psi(rows, cols), right(rows, cols), down(rows, cols), a_inv(rows, cols), rhs(rows, cols);
+  const Weights w{right, down};
+  for (int iteration = 0; iteration < o.fixed_point_iterations; ++iteration) {
+    for_rows(rows, [&](int y) {
+      const int yn = std::min(y + 1, rows - 1);
+      for (int x = 0; x < cols; ++x) {
+        const int xn = std::min(x + 1, cols - 1);
+        const float a0 = in.s(y, x) + ds(y, x);
+        const float ax = in.s(y, xn) + ds(y, xn) - a0, ay = in.s(yn, x) + ds(yn, x) - a0;
+        psi(y, x) = robust_weight(in.smoothness(y, x), ax * ax + ay * ay, epsilon_squared);
+      }
+    });
+    for_rows(rows, [&](int y) {
+      for (int x = 0; x < cols; ++x) {
+        right(y, x) = x + 1 < cols ? 0.5f * (psi(y, x) + psi(y, x + 1)) : 0.f;
+        down(y, x) = y + 1 < rows ? 0.5f * (psi(y, x) + psi(y + 1, x)) : 0.f;
+      }
+    });
+    // The 2-D system projected on the line direction d: d^T A d ds = -d^T c.
+    for_rows(rows, [&](int y) {
+      for (int x = 0; x < cols; ++x) {
+        const cv::Vec2f d = in.direction(y, x);
+        const float dx = finite_or_zero(d[0]), dy = finite_or_zero(d[1]);
+        const float du = ds(y, x) * dx, dv = ds(y, x) * dy;
+        const float psi_b = robust_weight(o.delta, quadratic(in.brightness, y, x, du, dv), epsilon_squared);
+        const float psi_g = robust_weight(o.gamma, quadratic(in.gradient, y, x, du, dv), epsilon_squared);
+        const auto mix = [&](int k) { return psi_b * in.brightness[k](y, x) + psi_g * in.gradient[k](y, x); };
+        const float a11 = mix(0), a12 = mix(1), a22 = mix(2), c1 = mix(3), c2 = mix(4);
+        const float total = w.total(y, x);
+        a_inv(y, x) = 1.f / (dx * dx * a11 + 2 * dx * dy * a12 + dy * dy * a22 + total + damping);
+        rhs(y, x) = w.neighbours(in.s, y, x) - total * in.s(y, x) - (dx * c1 + dy * c2);
+      }
+    });
+    for (int sweep = 0; sweep < o.sor_iterations; ++sweep)
+      for (int colour = 0; colour < 2; ++colour)
+        for_rows(rows, [&](int y) {
+          for (int x = (y + colour) & 1; x < cols; x += 2)
+            ds(y, x) = (1 - omega) * ds(y, x) + omega * (rhs(y, x) + w.neighbours(ds, y, x)) * a_inv(y, x);
+        });
+  }
+}
+
+DeviceFootprint increments_footprint(cv::Size size, IncrementMode mode) {
+  const std::uint64_t plane = std::uint64_t(std::max(size.area(), 0)) * sizeof(float);
+  // Both tensors as one six-plane buffer each, the flow (or s and the two-plane direction), the
+  // smoothness weight and the work planes of flow_increments_opencl / line_increments_opencl.
+  const std::uint64_t planes = mode == IncrementMode::free ? 12 + 2 + 1 + 10 : 12 + 1 + 2 + 1 + 6;
+  return {planes * plane, 6 * plane};
+}
+
+bool fits_on(const DeviceFootprint& footprint, const DeviceInfo& device) {
+  return device.kind != DeviceKind::cpu && footprint.total <= device.global_memory &&
+         footprint.largest_buffer <= device.max_allocation;
+}
+
+void line_increments(const LineIncrementInput& input, cv::Mat1f& ds, DeviceKind device) {
+  if (device == DeviceKind::automatic) device = active_device();
+  check_input(input);
+  if (device == DeviceKind::cuda && opencl_unavailable_reason().empty()) device = DeviceKind::opencl;
+  if (device == DeviceKind::opencl) return line_increments_opencl(input, ds);
+  line_increments_cpu(input, ds);
 }
 
 void flow_increments(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv, DeviceKind device) {

@@ -8,7 +8,16 @@
 // OpenCL and CUDA versions run the same float operations in the same order (no contraction into FMA,
 // correctly rounded division and square root), so they agree with it to rounding: the tests accept
 // 1e-4 px in (du, dv), well below the 0.01 px flow EPE tolerance.
+//
+// The epipolar mode (LevelSolver::solve_along) has its own scalar system: the flow is base + s * d
+// with one unknown s per pixel; line_increments_* compute its increment ds the same way (CPU reference
+// and OpenCL; no CUDA kernel, see line_increments).
+//
+// A level is solved on the device in one piece: stages check flow_increments_fit first and keep a level
+// that does not fit on the CPU. (Tiles would give the same result only with halos as wide as a warp's
+// reach, fixed_point_iterations * (2 * sor_iterations + 2) pixels, 110 at the defaults; not done.)
 #include <array>
+#include <cstdint>
 #include <opencv2/core.hpp>
 
 #include "pg/gpu/device.h"
@@ -34,11 +43,37 @@ struct FlowIncrementInput {
   cv::Size size() const { return u.size(); }
 };
 
+struct LineIncrementInput {
+  std::array<cv::Mat1f, 6> brightness, gradient;  // as in FlowIncrementInput, at base + s * direction
+  cv::Mat1f smoothness;                           // alpha * g(x) per pixel
+  cv::Mat1f s;                                    // the position along the line the tensors were computed at
+  cv::Mat2f direction;                            // the line direction d per pixel; non-finite: no data term
+  FlowIncrementOptions options;
+  cv::Size size() const { return s.size(); }
+};
+
 // The increments (du, dv) of one warp, starting from zero. du and dv are (re)allocated to the size.
 void flow_increments_cpu(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv);
 void flow_increments_opencl(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv);
 // On `device` (cpu, opencl or cuda; automatic = active_device()).
 void flow_increments(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv,
                      DeviceKind device = DeviceKind::automatic);
+
+// The increment ds of one warp of the epipolar mode, starting from zero; ds is (re)allocated.
+void line_increments_cpu(const LineIncrementInput& input, cv::Mat1f& ds);
+void line_increments_opencl(const LineIncrementInput& input, cv::Mat1f& ds);
+// On `device`; there is no CUDA kernel for it, so cuda runs the OpenCL kernel where an OpenCL device
+// is usable (NVIDIA's driver ships one) and the CPU reference otherwise.
+void line_increments(const LineIncrementInput& input, cv::Mat1f& ds,
+                     DeviceKind device = DeviceKind::automatic);
+
+// Device memory one warp needs at `size`: all buffers together and the largest single one (bytes).
+struct DeviceFootprint {
+  std::uint64_t total = 0, largest_buffer = 0;
+};
+enum class IncrementMode { free, line };
+DeviceFootprint increments_footprint(cv::Size size, IncrementMode mode);
+// Whether that fits the device's global memory and per-allocation limit. False for a CPU DeviceInfo.
+bool fits_on(const DeviceFootprint& footprint, const DeviceInfo& device);
 
 }  // namespace pg::gpu

@@ -27,6 +27,11 @@ cl::NDRange round_up(int cols, int rows) {
   return cl::NDRange(up(cols, 16), up(rows, 4));
 }
 
+void set_args(cl::Kernel& kernel, std::initializer_list<const cl::Buffer*> buffers) {
+  cl_uint k = 0;
+  for (const cl::Buffer* b : buffers) kernel.setArg(k++, *b);
+}
+
 }  // namespace
 
 void flow_increments_opencl(const FlowIncrementInput& in, cv::Mat1f& du, cv::Mat1f& dv) {
@@ -94,10 +99,72 @@ void flow_increments_opencl(const FlowIncrementInput& in, cv::Mat1f& du, cv::Mat
   }
 }
 
+void line_increments_opencl(const LineIncrementInput& in, cv::Mat1f& ds) {
+  auto* runtime = detail::OpenClRuntime::get();
+  if (!runtime) throw FailedError(str("OpenCL line increments: ", opencl_unavailable_reason()));
+  const int rows = in.s.rows, cols = in.s.cols;
+  const std::size_t n = std::size_t(rows) * cols, bytes = n * sizeof(float);
+  if (6 * bytes > runtime->info().max_allocation)
+    throw FailedError(str("OpenCL line increments: a ", cols, "x", rows, " level exceeds the device's ",
+                          runtime->info().max_allocation >> 20, " MiB allocation limit"));
+  try {
+    cl::Context& context = runtime->context();
+    cl::CommandQueue& queue = runtime->queue();
+    cl::Program& program = runtime->program("flow_increments", kernels::flow_increments);
+    const auto input = [&](const void* data, std::size_t size) {
+      return cl::Buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, size, const_cast<void*>(data));
+    };
+    std::vector<float> brightness_planes = planes(in.brightness), gradient_planes = planes(in.gradient);
+    cl::Buffer brightness = input(brightness_planes.data(), 6 * bytes);
+    cl::Buffer gradient = input(gradient_planes.data(), 6 * bytes);
+    cl::Buffer s = input(in.s.ptr<float>(), bytes), alpha = input(in.smoothness.ptr<float>(), bytes);
+    cl::Buffer direction = input(in.direction.ptr<cv::Vec2f>(), 2 * bytes);
+    std::vector<cl::Buffer> work;
+    for (int k = 0; k < 6; ++k) work.emplace_back(context, CL_MEM_READ_WRITE, bytes);
+    cl::Buffer &d_ds = work[0], &psi = work[1], &right = work[2], &down = work[3], &a_inv = work[4],
+               &rhs = work[5];
+    queue.enqueueFillBuffer(d_ds, 0.f, 0, bytes);
+
+    const FlowIncrementOptions& o = in.options;
+    const float epsilon_squared = o.epsilon * o.epsilon;
+    cl::Kernel smoothness(program, "smoothness_scalar"), edge_weights(program, "edge_weights");
+    cl::Kernel line_system(program, "line_system"), sor_colour(program, "sor_colour_scalar");
+    set_args(smoothness, {&s, &d_ds, &alpha, &psi});
+    smoothness.setArg(4, cols), smoothness.setArg(5, rows), smoothness.setArg(6, epsilon_squared);
+    set_args(edge_weights, {&psi, &right, &down});
+    edge_weights.setArg(3, cols), edge_weights.setArg(4, rows);
+    set_args(line_system, {&brightness, &gradient, &s, &d_ds, &direction, &right, &down, &a_inv, &rhs});
+    line_system.setArg(9, cols), line_system.setArg(10, rows), line_system.setArg(11, epsilon_squared);
+    line_system.setArg(12, o.delta), line_system.setArg(13, o.gamma);
+    set_args(sor_colour, {&a_inv, &rhs, &right, &down, &d_ds});
+    sor_colour.setArg(5, cols), sor_colour.setArg(6, rows), sor_colour.setArg(7, o.omega);
+
+    const cl::NDRange pixels = round_up(cols, rows), half = round_up((cols + 1) / 2, rows);
+    for (int iteration = 0; iteration < o.fixed_point_iterations; ++iteration) {
+      queue.enqueueNDRangeKernel(smoothness, cl::NullRange, pixels);
+      queue.enqueueNDRangeKernel(edge_weights, cl::NullRange, pixels);
+      queue.enqueueNDRangeKernel(line_system, cl::NullRange, pixels);
+      for (int sweep = 0; sweep < o.sor_iterations; ++sweep)
+        for (int colour = 0; colour < 2; ++colour) {
+          sor_colour.setArg(8, colour);
+          queue.enqueueNDRangeKernel(sor_colour, cl::NullRange, half);
+        }
+    }
+    ds.create(rows, cols);
+    queue.enqueueReadBuffer(d_ds, CL_TRUE, 0, bytes, ds.ptr<float>());
+  } catch (const cl::Error& e) {
+    throw FailedError(str("OpenCL line increments failed: ", e.what(), " error ", e.err()));
+  }
+}
+
 #else
 
 void flow_increments_opencl(const FlowIncrementInput&, cv::Mat1f&, cv::Mat1f&) {
   throw FailedError(str("OpenCL flow increments: ", opencl_unavailable_reason()));
+}
+
+void line_increments_opencl(const LineIncrementInput&, cv::Mat1f&) {
+  throw FailedError(str("OpenCL line increments: ", opencl_unavailable_reason()));
 }
 
 #endif

@@ -90,5 +90,62 @@ TEST(FlowIncrements, CpuDeviceRunsTheReference) {
   EXPECT_EQ(largest_difference(dv_a, dv_b), 0);
 }
 
+// The epipolar mode on a horizontal line field: a pixel-wise constant disparity t along d = (-1, 0)
+// solves the brightness tensor built for the 2-D motion (-t, 0), so ds converges to t.
+LineIncrementInput line_problem(int cols, int rows, float t) {
+  const FlowIncrementInput flow = translation_problem(cols, rows, -t, 0.f);
+  LineIncrementInput in;
+  in.brightness = flow.brightness, in.gradient = flow.gradient, in.smoothness = flow.smoothness;
+  in.s = cv::Mat1f::zeros(rows, cols);
+  in.direction = cv::Mat2f(rows, cols, cv::Vec2f(-1, 0));
+  return in;
+}
+
+TEST(LineIncrements, CpuReferenceConvergesToTheDisparity) {
+  LineIncrementInput in = line_problem(64, 48, 0.6f);
+  in.options.fixed_point_iterations = 10;
+  in.options.sor_iterations = 30;
+  cv::Mat1f ds;
+  line_increments_cpu(in, ds);
+  EXPECT_LT(cv::norm(ds(cv::Rect(4, 4, 56, 40)) - 0.6f, cv::NORM_INF), 0.01);
+}
+
+TEST(LineIncrements, OpenClEqualsCpu) {
+  PG_REQUIRE_OPENCL();
+  for (const cv::Size size : {cv::Size(67, 45), cv::Size(128, 96)}) {
+    LineIncrementInput in = line_problem(size.width, size.height, 0.8f);
+    for (int y = 0; y < size.height; ++y)
+      for (int x = 0; x < size.width; ++x) {
+        in.s(y, x) = 0.3f * std::sin(0.1f * x) + (x > size.width / 2 ? 0.5f : 0.f);
+        in.direction(y, x) = cv::Vec2f(-std::cos(0.01f * y), std::sin(0.01f * y));
+      }
+    in.direction(3, 5) = cv::Vec2f(std::nanf(""), std::nanf(""));  // a pixel without a line
+    cv::Mat1f ds_cpu, ds_cl;
+    line_increments_cpu(in, ds_cpu);
+    line_increments(in, ds_cl, DeviceKind::opencl);
+    EXPECT_LT(largest_difference(ds_cpu, ds_cl), 1e-4) << size;
+    EXPECT_GT(cv::norm(ds_cpu, cv::NORM_INF), 0.1);
+    EXPECT_TRUE(std::isfinite(ds_cl(3, 5)));
+  }
+}
+
+TEST(DeviceFootprint, CountsEveryPlaneAndComparesWithTheDeviceLimits) {
+  const cv::Size size(1000, 500);
+  const std::uint64_t plane = 1000 * 500 * 4;
+  const DeviceFootprint free = increments_footprint(size, IncrementMode::free);
+  EXPECT_EQ(free.total, 25 * plane);
+  EXPECT_EQ(free.largest_buffer, 6 * plane);
+  EXPECT_EQ(increments_footprint(size, IncrementMode::line).total, 22 * plane);
+  DeviceInfo device;
+  device.kind = DeviceKind::opencl;
+  device.global_memory = 25 * plane, device.max_allocation = 6 * plane;
+  EXPECT_TRUE(fits_on(free, device));
+  device.max_allocation = 6 * plane - 1;  // one tensor buffer too large
+  EXPECT_FALSE(fits_on(free, device));
+  device.max_allocation = 6 * plane, device.global_memory = 25 * plane - 1;
+  EXPECT_FALSE(fits_on(free, device));
+  EXPECT_FALSE(fits_on(free, DeviceInfo{}));  // the CPU has no device memory to fit
+}
+
 }  // namespace
 }  // namespace pg::gpu

@@ -85,3 +85,51 @@ __kernel void sor_colour(__global const float* a11_inv, __global const float* a2
   dv[i] = (1 - omega) * dv[i] +
           omega * (rhs2[i] + neighbours(dv, right, down, x, y, cols, rows) - a12[i] * du_new) * a22_inv[i];
 }
+
+// The epipolar mode (line_increments): one unknown s per pixel, the flow base + s * d.
+
+__kernel void smoothness_scalar(__global const float* s, __global const float* ds, __global const float* alpha,
+                                __global float* psi, int cols, int rows, float epsilon_squared) {
+  const int x = get_global_id(0), y = get_global_id(1);
+  if (x >= cols || y >= rows) return;
+  const int i = y * cols + x;
+  const int ix = y * cols + min(x + 1, cols - 1), iy = min(y + 1, rows - 1) * cols + x;
+  const float a0 = s[i] + ds[i];
+  const float ax = s[ix] + ds[ix] - a0, ay = s[iy] + ds[iy] - a0;
+  psi[i] = robust_weight(alpha[i], ax * ax + ay * ay, epsilon_squared);
+}
+
+inline float finite_or_zero(float value) { return isfinite(value) ? value : 0.f; }
+
+// The 2-D system projected on the line direction d (interleaved dx, dy): d^T A d ds = -d^T c.
+__kernel void line_system(__global const float* brightness, __global const float* gradient, __global const float* s,
+                          __global const float* ds, __global const float* direction, __global const float* right,
+                          __global const float* down, __global float* a_inv, __global float* rhs, int cols, int rows,
+                          float epsilon_squared, float delta, float gamma) {
+  const int x = get_global_id(0), y = get_global_id(1);
+  if (x >= cols || y >= rows) return;
+  const int i = y * cols + x, n = cols * rows;
+  const float damping = 1e-6f;
+  const float dx = finite_or_zero(direction[2 * i]), dy = finite_or_zero(direction[2 * i + 1]);
+  const float du = ds[i] * dx, dv = ds[i] * dy;
+  const float psi_b = robust_weight(delta, quadratic(brightness, n, i, du, dv), epsilon_squared);
+  const float psi_g = robust_weight(gamma, quadratic(gradient, n, i, du, dv), epsilon_squared);
+  const float a11 = psi_b * brightness[i] + psi_g * gradient[i];
+  const float a12 = psi_b * brightness[n + i] + psi_g * gradient[n + i];
+  const float a22 = psi_b * brightness[2 * n + i] + psi_g * gradient[2 * n + i];
+  const float c1 = psi_b * brightness[3 * n + i] + psi_g * gradient[3 * n + i];
+  const float c2 = psi_b * brightness[4 * n + i] + psi_g * gradient[4 * n + i];
+  const float total = left_weight(right, i, x) + right[i] + down[i] + up_weight(down, i, y, cols);
+  a_inv[i] = 1.f / (dx * dx * a11 + 2 * dx * dy * a12 + dy * dy * a22 + total + damping);
+  rhs[i] = neighbours(s, right, down, x, y, cols, rows) - total * s[i] - (dx * c1 + dy * c2);
+}
+
+__kernel void sor_colour_scalar(__global const float* a_inv, __global const float* rhs, __global const float* right,
+                                __global const float* down, __global float* ds, int cols, int rows, float omega,
+                                int colour) {
+  const int y = get_global_id(1);
+  const int x = 2 * get_global_id(0) + ((y + colour) & 1);
+  if (x >= cols || y >= rows) return;
+  const int i = y * cols + x;
+  ds[i] = (1 - omega) * ds[i] + omega * (rhs[i] + neighbours(ds, right, down, x, y, cols, rows)) * a_inv[i];
+}

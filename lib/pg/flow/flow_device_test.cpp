@@ -1,0 +1,120 @@
+// The whole flow solver with its inner iterations on the OpenCL device (PoCL here) against the CPU
+// reference, in both modes, on a synthetic pair with a known smooth flow. Skips without OpenCL.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <string>
+
+#include "pg/flow/flow.h"
+#include "pg/gpu/device.h"
+#include "pg/gpu/test_support.h"
+
+namespace {
+
+constexpr double pi = 3.14159265358979323846;
+
+// A smooth random colour texture (blurred noise), 8-bit.
+cv::Mat3b texture(cv::Size size, int seed) {
+  cv::Mat3f noise(size);
+  cv::RNG rng(seed);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 1);
+  cv::GaussianBlur(noise, noise, {0, 0}, 2.0);
+  cv::normalize(noise, noise, 0, 255, cv::NORM_MINMAX);
+  cv::Mat3b out;
+  noise.convertTo(out, CV_8U);
+  return out;
+}
+
+// A pair whose exact flow is known: `to` samples `from` at p - m(p) for a smooth motion m given on
+// `to`'s pixels, so the flow of `from`'s pixel x is m(p) at the p with p = x + m(p) (fixed point).
+struct SyntheticPair {
+  cv::Mat3b from, to;
+  cv::Mat2f truth;
+};
+
+template <class Motion>
+SyntheticPair warped_pair(cv::Size size, const Motion& motion) {
+  SyntheticPair pair;
+  pair.from = texture(size, 7);
+  cv::Mat1f map_x(size), map_y(size);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      const cv::Vec2f m = motion(float(x), float(y));
+      map_x(y, x) = float(x) - m[0], map_y(y, x) = float(y) - m[1];
+    }
+  cv::remap(pair.from, pair.to, map_x, map_y, cv::INTER_CUBIC, cv::BORDER_REFLECT);
+  pair.truth.create(size);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      cv::Vec2f m = motion(float(x), float(y));
+      for (int i = 0; i < 20; ++i) m = motion(float(x) + m[0], float(y) + m[1]);
+      pair.truth(y, x) = m;
+    }
+  return pair;
+}
+
+// Mean end-point error between two flows away from the border (where the pair has no content).
+double mean_epe(const cv::Mat2f& a, const cv::Mat2f& b, int margin = 16) {
+  double sum = 0;
+  int n = 0;
+  for (int y = margin; y < a.rows - margin; ++y)
+    for (int x = margin; x < a.cols - margin; ++x, ++n) sum += cv::norm(a(y, x) - b(y, x));
+  return sum / n;
+}
+
+// Runs `solve` with the device set to `kind`, restoring the automatic choice after.
+template <class Solve>
+auto on_device(pg::gpu::DeviceKind kind, const Solve& solve) {
+  pg::gpu::set_requested_device(kind);
+  auto result = solve();
+  pg::gpu::set_requested_device(pg::gpu::DeviceKind::automatic);
+  return result;
+}
+
+// The measured errors, in the test's XML output (--gtest_output=xml).
+void record(double cpu_error, double opencl_error, double difference) {
+  ::testing::Test::RecordProperty("cpu_epe", std::to_string(cpu_error));
+  ::testing::Test::RecordProperty("opencl_epe", std::to_string(opencl_error));
+  ::testing::Test::RecordProperty("cpu_opencl_epe", std::to_string(difference));
+}
+
+TEST(FlowDevice, FreeFlowOnOpenClMatchesTheCpuWithinAHundredthOfAPixel) {
+  PG_REQUIRE_OPENCL();
+  const SyntheticPair pair = warped_pair({256, 192}, [](float x, float y) {
+    return cv::Vec2f(1.5f + 1.2f * float(std::sin(2 * pi * x / 256)),
+                     -0.8f + 0.9f * float(std::cos(2 * pi * y / 192)));
+  });
+  const auto solve = [&] { return pg::compute_flow(pair.from, pair.to); };
+  const cv::Mat2f cpu = on_device(pg::gpu::DeviceKind::cpu, solve);
+  const cv::Mat2f opencl = on_device(pg::gpu::DeviceKind::opencl, solve);
+  const double cpu_error = mean_epe(cpu, pair.truth), opencl_error = mean_epe(opencl, pair.truth);
+  record(cpu_error, opencl_error, mean_epe(cpu, opencl));
+  EXPECT_LT(cpu_error, 0.1);
+  EXPECT_LT(opencl_error, 0.1);
+  EXPECT_LT(std::abs(cpu_error - opencl_error), 0.01);
+  EXPECT_LT(mean_epe(cpu, opencl), 0.01);  // the flows themselves agree, not only their accuracy
+}
+
+TEST(FlowDevice, EpipolarFlowOnOpenClMatchesTheCpuWithinAHundredthOfAPixel) {
+  PG_REQUIRE_OPENCL();
+  // A rectified pair: disparity to the left, varying smoothly over the image.
+  const auto disparity = [](float x, float y) {
+    return 3.f + 1.5f * float(std::sin(2 * pi * x / 256) * std::cos(2 * pi * y / 192));
+  };
+  const SyntheticPair pair =
+      warped_pair({256, 192}, [&](float x, float y) { return cv::Vec2f(-disparity(x, y), 0.f); });
+  const pg::EpipolarField field{cv::Mat2f(pair.from.size(), cv::Vec2f(0, 0)),
+                                cv::Mat2f(pair.from.size(), cv::Vec2f(-1, 0))};
+  const auto solve = [&] { return pg::compute_epipolar_flow(pair.from, pair.to, field).flow; };
+  const cv::Mat2f cpu = on_device(pg::gpu::DeviceKind::cpu, solve);
+  const cv::Mat2f opencl = on_device(pg::gpu::DeviceKind::opencl, solve);
+  const double cpu_error = mean_epe(cpu, pair.truth), opencl_error = mean_epe(opencl, pair.truth);
+  record(cpu_error, opencl_error, mean_epe(cpu, opencl));
+  EXPECT_LT(cpu_error, 0.1);
+  EXPECT_LT(opencl_error, 0.1);
+  EXPECT_LT(std::abs(cpu_error - opencl_error), 0.01);
+  EXPECT_LT(mean_epe(cpu, opencl), 0.01);
+}
+
+}  // namespace
