@@ -5,9 +5,13 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/openexr.h>
 
+#include <cstdint>
+#include <fstream>
 #include <limits>
+#include <string>
 
 #include "pg/core/error.h"
+#include "pg/core/log.h"
 #include "pg/image/image_io.h"
 
 namespace fs = std::filesystem;
@@ -48,11 +52,58 @@ Imf::FrameBuffer frame_buffer(const std::vector<Slice>& slices, const Imath::Box
   return buffer;
 }
 
+// Walks the header's attributes (name, type, int32 size, value) and rejects one that claims more
+// bytes than the file holds. OpenEXR's C++ reader allocates an attribute of unknown type at the size
+// its header states before reading it: a corrupt size would make it allocate (and clear) gigabytes.
+void check_attribute_sizes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  in.seekg(0, std::ios::end);
+  const std::int64_t file_size = in.tellg();
+  in.seekg(0);
+  const auto read_int = [&](std::int32_t& value) {
+    unsigned char b[4];
+    if (!in.read(reinterpret_cast<char*>(b), 4)) return false;
+    value = std::int32_t(std::uint32_t(b[0]) | std::uint32_t(b[1]) << 8 | std::uint32_t(b[2]) << 16 |
+                         std::uint32_t(b[3]) << 24);
+    return true;
+  };
+  // A name or type: at most 255 characters and a terminating zero; "" ends a header.
+  const auto read_name = [&](std::string& name) {
+    name.clear();
+    for (char c; in.get(c);) {
+      if (c == '\0') return true;
+      if (name.size() == 255) return false;
+      name.push_back(c);
+    }
+    return false;
+  };
+  std::int32_t magic = 0, version = 0;
+  if (!read_int(magic) || !read_int(version)) return;  // the core preflight names the problem
+  const bool multipart = (version & 0x1000) != 0;
+  for (int header = 0;; ++header) {
+    std::string name, type;
+    int attributes = 0;
+    while (read_name(name) && !name.empty()) {
+      std::int32_t size = 0;
+      if (!read_name(type) || !read_int(size)) return;
+      const std::int64_t remaining = file_size - std::int64_t(in.tellg());
+      if (size < 0 || size > remaining)
+        throw InputError(path, str("OpenEXR header attribute '", name, "' claims ", size, " bytes but ",
+                                   remaining, " remain in the file"));
+      in.seekg(size, std::ios::cur);
+      ++attributes;
+    }
+    // A single-part file has one header; a multi-part file ends its list with an empty header.
+    if (!multipart || attributes == 0 || !in || header > 10000) return;
+  }
+}
+
 }  // namespace
 
 cv::Size preflight(const fs::path& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw InputError(path, "file does not exist or is not a regular file");
+  check_attribute_sizes(path);
   exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
   init.error_handler_fn = &keep_core_message;
   CoreContext core;
