@@ -43,7 +43,7 @@ md="$work/shot-report.md"
   done
   awk '$1 == "\"wall_seconds\":" { v = $2; sub(/,$/, "", v); s += v } END { printf "\nTotal job time %.1f s.\n", s }' $reports
   for r in $reports; do
-    case "$(basename "$r")" in eval-*|calib*|track*) ;; *) continue ;; esac
+    case "$(basename "$r")" in eval-*|calib*|track*|refine*) ;; *) continue ;; esac
     echo
     echo "## $(basename "$r" .report.json)"
     echo
