@@ -3,7 +3,10 @@
 //   flow:  one warp of the flow solver's inner iterations (5 fixed-point x 10 SOR sweeps) at 1536x1024;
 //   solver: the whole flow solver (pg::compute_flow, every pyramid level, inner iterations on the
 //          device as pg-depth --device runs them) on one 1024x768 pair, free and epipolar mode;
-//   tsdf:  one 640x480 depth frame of a sphere into ~1.9 M voxels of dense 8^3 blocks.
+//   tsdf:  one 640x480 depth frame of a sphere into ~1.9 M voxels of dense 8^3 blocks;
+//   merge: what pg-merge volume does with depth maps: 12 views (640x480) of a ground, box and sphere
+//          integrated into a TsdfVolume at a 1 cm voxel (leaf collection, the kernel and the copies
+//          in and out of the OpenVDB grids), on the CPU and with the OpenCL kernel.
 // Prints each path's time, the ratio and the largest difference (which the tests bound).
 // The rasterizer has no OpenCL kernel yet, so it is not timed here.
 #include <chrono>
@@ -11,10 +14,13 @@
 #include <cstdio>
 #include <functional>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "pg/flow/flow.h"
+#include "pg/fusion/fusion_test_scenes.h"
+#include "pg/fusion/tsdf_volume.h"
 #include "pg/gpu/device.h"
 #include "pg/gpu/flow_increments.h"
 #include "pg/gpu/tsdf_blocks.h"
@@ -138,6 +144,37 @@ void bench_solver() {
   }
 }
 
+// pg-merge's integration of depth maps, on the CPU and on the OpenCL device.
+void bench_merge() {
+  namespace scenes = pg::fusion::testing;
+  pg::Mesh scene = scenes::ground(2.0f);
+  scenes::append(scene, scenes::box({0.3f, -0.6f, 0.0f}, {0.9f, 0.0f, 0.5f}));
+  scenes::append(scene, scenes::sphere({-0.5f, 0.4f, 0.45f}, 0.45f));
+  const pg::TriangleBvh bvh(scene);
+  std::vector<pg::fusion::DepthFrame> frames;
+  for (const pg::Camera& camera : scenes::orbit(12, 3.0, 1.8, {0, 0, 0.2}, 640, 480, 550))
+    frames.push_back(pg::fusion::make_depth_frame(scenes::render_depth(bvh, camera), camera.id, {}));
+  const pg::fusion::TsdfOptions options{.voxel_size = 0.01};
+  const auto merge = [&](pg::gpu::DeviceKind kind, std::optional<pg::fusion::TsdfVolume>& volume) {
+    pg::gpu::set_requested_device(kind);
+    const double seconds = best_time(1, [&] {
+      volume.emplace(options);
+      for (const auto& frame : frames) volume->integrate(frame);
+    });
+    pg::gpu::set_requested_device(pg::gpu::DeviceKind::automatic);
+    return seconds;
+  };
+  std::optional<pg::fusion::TsdfVolume> cpu, opencl;
+  const double cpu_time = merge(pg::gpu::DeviceKind::cpu, cpu);
+  const double opencl_time = merge(pg::gpu::DeviceKind::opencl, opencl);
+  const pg::fusion::TsdfVolume::Difference difference = opencl->compare(*cpu);
+  std::printf(
+      "merge  12 x 640x480 voxel 0.01 (%.1f M voxels) cpu %7.3f s   opencl %7.3f s   cpu/opencl %6.2fx   "
+      "max |difference| %.2e, weight %.2e relative\n",
+      double(cpu->active_voxel_count()) * 1e-6, cpu_time, opencl_time, cpu_time / opencl_time,
+      difference.distance, difference.weight_relative);
+}
+
 }  // namespace
 
 int main() {
@@ -167,6 +204,7 @@ int main() {
   for (std::size_t i = 0; i < cpu.distance.size(); ++i)
     difference = std::max(difference, double(std::abs(cpu.distance[i] - cl.distance[i])));
   report("tsdf", tsdf_cpu, tsdf_cl, difference);
+  bench_merge();
 
   bench_solver();
   return 0;

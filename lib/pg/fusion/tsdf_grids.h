@@ -24,6 +24,13 @@ struct TsdfVolume::Grids {
 // OpenVDB's one-time registration of grid types (thread-safe, idempotent).
 void initialize_openvdb();
 
+// TsdfVolume::integrate(DepthFrame) on the accelerated device (tsdf_device.cpp): integrates a prefix
+// of `leaves` (allocated already) and returns how many it did, 0 when the frame stays on the CPU
+// (device cpu, a camera or colour the kernel does not cover, no OpenCL). A device failure stops it
+// at a batch boundary with a warning; the caller integrates the remaining leaves on the CPU.
+std::size_t integrate_on_device(TsdfVolume::Grids& grids, const std::vector<openvdb::Coord>& leaves,
+                                const DepthFrame& frame);
+
 // Index coordinate of the voxel whose centre is nearest to a world point (voxel centres at i * voxel).
 inline openvdb::Coord nearest_voxel(const Eigen::Vector3d& world, double inverse_voxel) {
   return openvdb::Coord(int(std::floor(world.x() * inverse_voxel + 0.5)),

@@ -361,10 +361,13 @@ void TsdfVolume::integrate(const DepthFrame& frame) {
   check_memory(count_new_leaves(g, origins), frame.name);
   allocate_leaves(g, origins);
 
+  // The accelerated device integrates a prefix of the leaves (all of them, or none where it is not
+  // used; fewer after a device failure); the CPU integrates the rest.
+  const std::size_t on_device = integrate_on_device(g, origins, frame);
   const FrameProjector projector(frame);
   const bool with_color = g.color && !frame.color.empty();
   const cv::Mat3b color = frame.color;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, origins.size()),
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(on_device, origins.size()),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i < r.end(); ++i) {
                         LeafSet leaves = leaves_at(g, origins[i]);

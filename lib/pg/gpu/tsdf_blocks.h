@@ -10,7 +10,9 @@
 // the block with the pixel's weight ramped down behind the surface (Curless & Levoy).
 //
 // integrate_blocks_cpu is the reference (double geometry as in the fusion module). The OpenCL kernel
-// uses double geometry where the device has fp64 and float otherwise; values agree within 1e-5.
+// uses double geometry where the device has fp64 and float otherwise; values agree within 1e-5 (with
+// fp64 the kernel repeats the CPU's operation order; on PoCL the values come out the same bits).
+// TsdfVolume::integrate(DepthFrame) hands its leaves to integrate_blocks_opencl (fusion/tsdf_device.cpp).
 // Frames the kernel does not cover (cameras other than undistorted pinhole) run on the CPU.
 #include <Eigen/Core>
 #include <vector>

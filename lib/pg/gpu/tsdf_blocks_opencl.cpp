@@ -35,6 +35,9 @@ void integrate_blocks_opencl(TsdfBlocks& blocks, const fusion::DepthFrame& frame
   if (blocks.distance.size() != blocks.size() * kBlockVoxels ||
       blocks.weight.size() != blocks.distance.size())
     throw UsageError("TSDF blocks: distance and weight arrays do not match the block count");
+  if (frame.depth.size() != frame.weight.size() ||
+      (!frame.cos_angle.empty() && frame.cos_angle.size() != frame.depth.size()))
+    throw UsageError(str(frame.name, ": depth, weight and angle sizes differ"));
   const int rows = frame.depth.rows, cols = frame.depth.cols;
   const std::size_t pixel_bytes = std::size_t(rows) * cols * sizeof(float);
   const std::uint64_t limit = runtime->info().max_allocation;

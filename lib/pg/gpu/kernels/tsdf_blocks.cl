@@ -16,10 +16,12 @@ __kernel void integrate(__global const int* origins, __global float* distance, _
   const real wx = (origins[3 * b] + (n >> 6)) * voxel;
   const real wy = (origins[3 * b + 1] + ((n >> 3) & 7)) * voxel;
   const real wz = (origins[3 * b + 2] + (n & 7)) * voxel;
-  // Eigen's matrix-vector product sums each row left to right; so does this.
+  // The sums in the order of the CPU's Eigen product (Matrix3d * Vector3d with SSE2): rows 0 and 1
+  // go as one packet, left to right; row 2 is a scalar reduction, split as a0 + (a1 + a2). Any other
+  // order moves a voxel that projects exactly onto a pixel boundary to the neighbouring pixel.
   const real px3 = params[0] * wx + params[1] * wy + params[2] * wz + params[9];
   const real py3 = params[3] * wx + params[4] * wy + params[5] * wz + params[10];
-  const real pz3 = params[6] * wx + params[7] * wy + params[8] * wz + params[11];
+  const real pz3 = params[6] * wx + (params[7] * wy + params[8] * wz) + params[11];
   if (pz3 <= 0) return;
   const real u = params[12] * px3 / pz3 + params[14], v = params[13] * py3 / pz3 + params[15];
   const int x = (int)floor(u + (real)0.5), y = (int)floor(v + (real)0.5);
