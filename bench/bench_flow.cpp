@@ -1,17 +1,20 @@
 // Flow accuracy and speed against OpenCV's dense methods, all run here in the same process.
 //   bench_flow [--data DIR] [--only sintel|stereo|speed]... [--pg KEY=VALUE,...] [--no-opencv]
+//              [--repeat N]
 // --pg adds "pg custom": the balanced preset with these FlowOptions fields changed (tuning runs);
-// --no-opencv skips the OpenCV methods.
+// --no-opencv skips the OpenCV methods; --repeat runs the speed pair N times (default 3), the
+// reference and ours interleaved, and reports medians (on a loaded machine, compare the ratios).
 // Sintel alley_1 clean/final: end-point error over all and non-occluded pixels. Middlebury tsukuba,
 // venus, teddy and aloe as stereo (flow left -> right, truth u = -disparity): bad-pixel rates at 1 and
 // 2 px and the mean disparity error over pixels with known truth; methods leaving holes report their
 // density and are scored on what they estimated. Speed: the Strecha Herz-Jesus 0000/0001 pair at
-// 1536x1024, wall time and the ratio to DIS + VariationalRefinement.
+// 1536x1024, wall time and the ratio to DIS + VariationalRefinement (medians of interleaved runs).
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/optflow.hpp>
 #include <opencv2/video.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -77,6 +80,7 @@ std::vector<Method> opencv_methods() {
 
 std::vector<std::pair<std::string, pg::FlowOptions>> custom_settings;
 bool run_opencv = true;
+int speed_repeats = 3;
 
 // "alpha=2,median_radius=1" applied to the balanced preset.
 pg::FlowOptions parse_settings(const std::string& text) {
@@ -289,20 +293,34 @@ void bench_speed(const fs::path& data) {
   Pair pair;
   cv::resize(pg::read_image(dir / "0000.jpg"), pair.from, {1536, 1024}, 0, 0, cv::INTER_AREA);
   cv::resize(pg::read_image(dir / "0001.jpg"), pair.to, {1536, 1024}, 0, 0, cv::INTER_AREA);
-  // Process CPU time beside wall time: on a shared machine wall time depends on the load.
-  const auto cpu_seconds = [](auto&& f) {
-    const std::clock_t start = std::clock();
-    f();
-    return static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC;
+  // Process CPU time beside wall time: on a shared machine wall time depends on the load. Each
+  // repetition runs the reference and then every method, so load changes hit all of them alike.
+  struct Timing {
+    std::vector<double> wall, cpu;
   };
-  double reference_cpu = 0;
-  const double reference = seconds([&] { reference_cpu = cpu_seconds([&] { dis_refined(pair); }); });
-  std::printf("  %-28s %.2f s   cpu %.2f s\n", "DIS+VariationalRefinement", reference, reference_cpu);
-  for (const Method& m : our_methods()) {
-    double cpu = 0;
-    const double t = seconds([&] { cpu = cpu_seconds([&] { m.run(pair); }); });
+  const auto timed = [](Timing& timing, const auto& f) {
+    const std::clock_t start = std::clock();
+    timing.wall.push_back(seconds(f));
+    timing.cpu.push_back(static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC);
+  };
+  const auto median = [](std::vector<double> values) {
+    std::sort(values.begin(), values.end());
+    return values[values.size() / 2];
+  };
+  const std::vector<Method> methods = our_methods();
+  Timing reference;
+  std::vector<Timing> ours(methods.size());
+  for (int r = 0; r < speed_repeats; ++r) {
+    timed(reference, [&] { dis_refined(pair); });
+    for (std::size_t m = 0; m < methods.size(); ++m) timed(ours[m], [&] { methods[m].run(pair); });
+  }
+  const double reference_wall = median(reference.wall), reference_cpu = median(reference.cpu);
+  std::printf("  %-28s %.2f s   cpu %.2f s   (median of %d)\n", "DIS+VariationalRefinement", reference_wall,
+              reference_cpu, speed_repeats);
+  for (std::size_t m = 0; m < methods.size(); ++m) {
+    const double wall = median(ours[m].wall), cpu = median(ours[m].cpu);
     std::printf("  %-28s %.2f s   cpu %.2f s   ratio to DIS+VariationalRefinement %.2f (cpu %.2f)\n",
-                m.name.c_str(), t, cpu, t / reference, cpu / reference_cpu);
+                methods[m].name.c_str(), wall, cpu, wall / reference_wall, cpu / reference_cpu);
   }
 }
 
@@ -324,9 +342,11 @@ int main(int argc, char** argv) {
                                    parse_settings(text));
     } else if (arg == "--no-opencv")
       run_opencv = false;
+    else if (arg == "--repeat" && i + 1 < argc)
+      speed_repeats = std::max(1, std::atoi(argv[++i]));
     else {
       std::cerr << "usage: bench_flow [--data DIR] [--only sintel|stereo|speed]... [--pg KEY=VALUE,...] "
-                   "[--no-opencv]\n";
+                   "[--no-opencv] [--repeat N]\n";
       return 2;
     }
   }

@@ -126,12 +126,17 @@ cv::Mat2f compute_flow(const cv::Mat& from, const cv::Mat& to, const FlowOptions
     u = cv::Mat1f::zeros(full);
     v = cv::Mat1f::zeros(full);
   }
+  // Buffers for the largest level solved, reused by every level.
+  const cv::Size largest = pair.sizes[last_level(pair, options)];
+  flow_detail::PlanePool pool(largest);
+  LevelSolver solver(largest, options);
   for (int level = first_level(pair); level >= last_level(pair, options); --level) {
     const cv::Size size = pair.sizes[level];
     u = rescale(u, size, static_cast<double>(size.width) / u.cols);
     v = rescale(v, size, static_cast<double>(size.height) / v.rows);
-    const LevelImages images = flow_detail::prepare_level(pair.from[level], pair.to[level], options);
-    LevelSolver(images, options).solve(u, v);
+    pool.release_all();
+    const LevelImages images = flow_detail::prepare_level(pair.from[level], pair.to[level], options, pool);
+    solver.solve(images, u, v);
   }
   u = rescale(u, full, static_cast<double>(full.width) / u.cols);
   v = rescale(v, full, static_cast<double>(full.height) / v.rows);
@@ -174,12 +179,16 @@ EpipolarFlow compute_epipolar_flow(const cv::Mat& from, const cv::Mat& to, const
       for (int x = 0; x < full.width; ++x) s(y, x) = -field.base(y, x).dot(field.direction(y, x));
   }
   cv::patchNaNs(s, 0.0);
+  const cv::Size largest = pair.sizes[finest];
+  flow_detail::PlanePool pool(largest);
+  LevelSolver solver(largest, options);
   for (int level = start; level >= finest; --level) {
     const cv::Size size = pair.sizes[level];
     s = rescale(s, size, static_cast<double>(size.width) / s.cols);
     const EpipolarField level_field = level == 0 ? field : resize_epipolar_field(field, size);
-    const LevelImages images = flow_detail::prepare_level(pair.from[level], pair.to[level], options);
-    LevelSolver(images, options).solve_along(s, level_field.base, level_field.direction);
+    pool.release_all();
+    const LevelImages images = flow_detail::prepare_level(pair.from[level], pair.to[level], options, pool);
+    solver.solve_along(images, s, level_field.base, level_field.direction);
   }
   EpipolarFlow result;
   result.along = rescale(s, full, static_cast<double>(full.width) / s.cols);

@@ -11,10 +11,11 @@
 
 namespace pg {
 
-// LevelSolver's buffers, allocated per level: 17 planes (the 12 motion-tensor entries b11..b33 and
-// g11..g33, psi, weight_right, weight_down, du, dv) and 11 SplitFields of about one plane each
-// (split_du, split_dv, a11_inv, a22_inv, a12, rhs1, rhs2 and the four weights l, r, u, d).
-inline constexpr int flow_solver_planes = 17 + 11;
+// LevelSolver's buffers, allocated once at the finest level solved and reused by every level: 15
+// planes (the 12 motion-tensor entries b11..b33 and g11..g33, psi, du, dv) and 11 SplitFields of
+// about one plane each (split_du, split_dv, a11_inv, a22_inv, a12, rhs1, rhs2 and the four weights
+// l, r, u, d).
+inline constexpr int flow_solver_planes = 15 + 11;
 // prepare_level: per channel and image the derivatives x, y, xx, xy, yy (the image itself is the
 // pyramid's level, not a copy).
 inline constexpr int flow_derivative_planes_per_channel = 5;

@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <bit>
+#include <climits>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 #include <opencv2/imgproc.hpp>
 
@@ -26,17 +28,27 @@ void for_rows(int rows, int cols, const RowBody& body) {
   });
 }
 
+// The SOR rows are the solver's hottest loops: where the CPU has AVX2, a clone using it runs (chosen
+// once at load time). AVX2 without FMA computes the same float operations, so the result is the same.
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
+#define PG_HOT_LOOP __attribute__((target_clones("avx2", "default")))
+#else
+#define PG_HOT_LOOP
+#endif
+
 // One row of a red-black SOR half-sweep of the 2-D system, n pixels of one colour. `*_side` hold the
 // row's other colour shifted so that [k] and [k + 1] are the left and right neighbours of pixel k;
 // `*_up` and `*_down` the same colour in the rows above and below. The arithmetic (and so the
 // result) matches the per-pixel form: neighbours summed left, right, up, down.
-void sor_row_2d(int n, float keep, float omega, float* __restrict du, float* __restrict dv,
-                const float* __restrict du_side, const float* __restrict du_up,
-                const float* __restrict du_down, const float* __restrict dv_side,
-                const float* __restrict dv_up, const float* __restrict dv_down, const float* __restrict wl,
-                const float* __restrict wr, const float* __restrict wu, const float* __restrict wd,
-                const float* __restrict a11_inv, const float* __restrict a22_inv, const float* __restrict a12,
-                const float* __restrict rhs1, const float* __restrict rhs2) {
+PG_HOT_LOOP void sor_row_2d(int n, float keep, float omega, float* __restrict du, float* __restrict dv,
+                            const float* __restrict du_side, const float* __restrict du_up,
+                            const float* __restrict du_down, const float* __restrict dv_side,
+                            const float* __restrict dv_up, const float* __restrict dv_down,
+                            const float* __restrict wl, const float* __restrict wr,
+                            const float* __restrict wu, const float* __restrict wd,
+                            const float* __restrict a11_inv, const float* __restrict a22_inv,
+                            const float* __restrict a12, const float* __restrict rhs1,
+                            const float* __restrict rhs2) {
   for (int k = 0; k < n; ++k) {
     const float du_sum = wl[k] * du_side[k] + wr[k] * du_side[k + 1] + wu[k] * du_up[k] + wd[k] * du_down[k];
     const float du_new = keep * du[k] + omega * (rhs1[k] + du_sum - a12[k] * dv[k]) * a11_inv[k];
@@ -47,10 +59,12 @@ void sor_row_2d(int n, float keep, float omega, float* __restrict du, float* __r
 }
 
 // The same for the scalar system of the epipolar mode.
-void sor_row_1d(int n, float keep, float omega, float* __restrict ds, const float* __restrict side,
-                const float* __restrict up, const float* __restrict down, const float* __restrict wl,
-                const float* __restrict wr, const float* __restrict wu, const float* __restrict wd,
-                const float* __restrict a_inv, const float* __restrict rhs) {
+PG_HOT_LOOP void sor_row_1d(int n, float keep, float omega, float* __restrict ds,
+                            const float* __restrict side, const float* __restrict up,
+                            const float* __restrict down, const float* __restrict wl,
+                            const float* __restrict wr, const float* __restrict wu,
+                            const float* __restrict wd, const float* __restrict a_inv,
+                            const float* __restrict rhs) {
   for (int k = 0; k < n; ++k) {
     const float sum = wl[k] * side[k] + wr[k] * side[k + 1] + wu[k] * up[k] + wd[k] * down[k];
     ds[k] = keep * ds[k] + omega * (rhs[k] + sum) * a_inv[k];
@@ -95,20 +109,46 @@ inline float keep_if(std::uint32_t mask, float value) {
   return std::bit_cast<float>(std::bit_cast<std::uint32_t>(value) & mask);
 }
 
+// All ones for a finite value, zero for infinity and NaN.
+inline std::uint32_t finite_mask(float value) {
+  return std::abs(value) <= std::numeric_limits<float>::max() ? ~0u : 0u;
+}
+
 // w^T J w for w = (du, dv, 1) and J given by its entries 11 12 22 13 23 33.
 inline float quadratic(float j11, float j12, float j22, float j13, float j23, float j33, float du, float dv) {
   return j11 * du * du + 2 * j12 * du * dv + j22 * dv * dv + 2 * j13 * du + 2 * j23 * dv + j33;
 }
 
+// Pixels per block of the system assembly (even: blocks start at even x, as the red-black split needs).
+constexpr int system_block = 256;
+
+// The left and right neighbours of the row block's pixels x = start .. start + n - 1, contiguous
+// (the pixel itself at the row's ends, where the weight is zero), so that the system's loops run
+// without index clamps and vectorise.
+void neighbour_values(const float* row, int start, int n, int cols, float* left, float* right) {
+  for (int i = 0; i < n; ++i) {
+    const int x = start + i;
+    left[i] = row[x > 0 ? x - 1 : x];
+    right[i] = row[x + 1 < cols ? x + 1 : x];
+  }
+}
+
 }  // namespace
 
+cv::Mat1f PlanePool::take(int rows, int cols) {
+  if (static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) > capacity_)
+    return cv::Mat1f(rows, cols);
+  if (used_ == planes_.size()) planes_.emplace_back(1, static_cast<int>(capacity_));
+  return cv::Mat1f(rows, cols, planes_[used_++].ptr<float>());
+}
+
 LevelImages prepare_level(const std::vector<cv::Mat1f>& from, const std::vector<cv::Mat1f>& to,
-                          const FlowOptions& options) {
+                          const FlowOptions& options, PlanePool& pool) {
   LevelImages level;
   const cv::Size size = from.front().size();
   const auto derivatives = [&](const cv::Mat1f& image, ImageDerivatives& d) {
     d.image = image;
-    for (cv::Mat1f* m : {&d.x, &d.y, &d.xx, &d.xy, &d.yy}) *m = cv::Mat1f(size);
+    for (cv::Mat1f* m : {&d.x, &d.y, &d.xx, &d.xy, &d.yy}) *m = pool.take(size);
     derivative_x(image, d.x);
     derivative_y(image, d.y);
     derivative_x(d.x, d.xx);
@@ -121,7 +161,8 @@ LevelImages prepare_level(const std::vector<cv::Mat1f>& from, const std::vector<
     derivatives(from[c], level.from[c]);
     derivatives(to[c], level.to[c]);
   }
-  level.smoothness = cv::Mat1f(size, static_cast<float>(options.alpha));
+  level.smoothness = pool.take(size);
+  level.smoothness.setTo(static_cast<float>(options.alpha));
   if (options.edge_weight > 0) {
     const float k = static_cast<float>(options.edge_weight), alpha = static_cast<float>(options.alpha);
     const float channel_share = 1.f / static_cast<float>(from.size());
@@ -137,9 +178,22 @@ LevelImages prepare_level(const std::vector<cv::Mat1f>& from, const std::vector<
   return level;
 }
 
-void SplitField::create(int rows, int cols) {
+void SplitField::create(int rows, int cols, PlanePool& pool) {
   cols_ = cols;
-  for (cv::Mat1f& part : parts_) part = cv::Mat1f::zeros(rows, (cols + 1) / 2 + 2);
+  // Both parts in one pooled plane: 2 * rows * ((cols + 1) / 2 + 2) floats fit a plane's capacity.
+  const cv::Mat1f both = pool.take(2 * rows, (cols + 1) / 2 + 2);
+  for (int parity = 0; parity < 2; ++parity) {
+    cv::Mat1f& part = parts_[parity];
+    part = both.rowRange(parity * rows, (parity + 1) * rows);
+    for (int y = 0; y < rows; ++y) part(y, 0) = part(y, count(parity) + 1) = 0.f;
+  }
+}
+
+void SplitField::split_block(int y, int start, int n, const float* values) {
+  float* even = row(0, y) + start / 2;
+  float* odd = row(1, y) + start / 2;
+  for (int k = 0; 2 * k < n; ++k) even[k] = values[2 * k];
+  for (int k = 0; 2 * k + 1 < n; ++k) odd[k] = values[2 * k + 1];
 }
 
 void SplitField::set_zero() {
@@ -155,15 +209,18 @@ void SplitField::merge_into(cv::Mat1f& field) const {
   });
 }
 
-LevelSolver::LevelSolver(const LevelImages& images, const FlowOptions& options)
-    : images_(images), options_(options), rows_(images.size().height), cols_(images.size().width) {
+LevelSolver::LevelSolver(cv::Size largest, const FlowOptions& options) : options_(options), pool_(largest) {}
+
+void LevelSolver::start_level(const LevelImages& images) {
+  images_ = &images;
+  rows_ = images.size().height, cols_ = images.size().width;
+  pool_.release_all();
   for (cv::Mat1f* m : {&b11_, &b12_, &b22_, &b13_, &b23_, &b33_, &g11_, &g12_, &g22_, &g13_, &g23_, &g33_,
-                       &psi_, &weight_right_, &weight_down_, &du_, &dv_})
-    *m = cv::Mat1f::zeros(rows_, cols_);
+                       &psi_, &du_, &dv_})
+    *m = pool_.take(rows_, cols_);
   for (SplitField* f : {&split_du_, &split_dv_, &a11_inv_, &a22_inv_, &a12_, &rhs1_, &rhs2_, &weight_l_,
                         &weight_r_, &weight_u_, &weight_d_})
-    f->create(rows_, cols_);
-  zero_row_.assign(cols_, 0.f);
+    f->create(rows_, cols_, pool_);
   zero_split_row_.assign((cols_ + 1) / 2 + 2, 0.f);
 }
 
@@ -205,9 +262,9 @@ void LevelSolver::compute_tensors(const cv::Mat1f& u, const cv::Mat1f& v) {
         offset[i] = y0 * cols_ + x0;
       }
       float t[12][block] = {};  // b11 b12 b22 b13 b23 b33 g11 g12 g22 g13 g23 g33
-      for (std::size_t c = 0; c < images_.from.size(); ++c) {
-        const ImageDerivatives& i1 = images_.from[c];
-        const ImageDerivatives& i2 = images_.to[c];
+      for (std::size_t c = 0; c < images_->from.size(); ++c) {
+        const ImageDerivatives& i1 = images_->from[c];
+        const ImageDerivatives& i2 = images_->to[c];
         // `to` and its derivatives warped back onto `from`.
         float s_image[block], s_x[block], s_y[block], s_xx[block], s_xy[block], s_yy[block];
         const auto gather = [&](const cv::Mat1f& m, float* out) {
@@ -267,97 +324,123 @@ void LevelSolver::compute_smoothness(const cv::Mat1f& a, const cv::Mat1f& da, co
                                      const cv::Mat1f& db) {
   const float epsilon_squared = static_cast<float>(options_.epsilon * options_.epsilon);
   const bool two = !b.empty();
+  const int last = cols_ - 1;
   for_rows(rows_, cols_, [&](int y) {
     const int yn = std::min(y + 1, rows_ - 1);
     float* psi = psi_[y];
-    const float* weight = images_.smoothness[y];
-    for (int x = 0; x < cols_; ++x) {
-      const int xn = std::min(x + 1, cols_ - 1);
-      const float a0 = a(y, x) + da(y, x);
-      const float ax = a(y, xn) + da(y, xn) - a0, ay = a(yn, x) + da(yn, x) - a0;
+    const float* weight = images_->smoothness[y];
+    const float *a_row = a[y], *da_row = da[y], *a_below = a[yn], *da_below = da[yn];
+    const float *b_row = two ? b[y] : a_row, *db_row = two ? db[y] : da_row;
+    const float *b_below = two ? b[yn] : a_below, *db_below = two ? db[yn] : da_below;
+    // Forward differences; the last column's right neighbour is itself (xn = x).
+    const auto at = [&]<bool Two>(int x, int xn) {
+      const float a0 = a_row[x] + da_row[x];
+      const float ax = a_row[xn] + da_row[xn] - a0, ay = a_below[x] + da_below[x] - a0;
       float squared = ax * ax + ay * ay;
-      if (two) {
-        const float b0 = b(y, x) + db(y, x);
-        const float bx = b(y, xn) + db(y, xn) - b0, by = b(yn, x) + db(yn, x) - b0;
+      if (Two) {
+        const float b0 = b_row[x] + db_row[x];
+        const float bx = b_row[xn] + db_row[xn] - b0, by = b_below[x] + db_below[x] - b0;
         squared += bx * bx + by * by;
       }
       psi[x] = robust_weight(weight[x], squared, epsilon_squared);
-    }
-  });
-  // Edge weights between neighbours: the mean of both pixels' weights; zero across the border.
-  for_rows(rows_, cols_, [&](int y) {
-    const float* psi = psi_[y];
-    const float* below = psi_[std::min(y + 1, rows_ - 1)];
-    float* right = weight_right_[y];
-    float* down = weight_down_[y];
-    for (int x = 0; x + 1 < cols_; ++x) right[x] = 0.5f * (psi[x] + psi[x + 1]);
-    right[cols_ - 1] = 0;
-    for (int x = 0; x < cols_; ++x) down[x] = y + 1 < rows_ ? 0.5f * (psi[x] + below[x]) : 0.f;
-  });
-  split_weights();
-}
-
-void LevelSolver::split_weights() {
-  for_rows(rows_, cols_, [&](int y) {
-    const RowWeights w = row_weights(y);
-    float* left[2] = {weight_l_.row(0, y), weight_l_.row(1, y)};
-    float* right[2] = {weight_r_.row(0, y), weight_r_.row(1, y)};
-    float* up[2] = {weight_u_.row(0, y), weight_u_.row(1, y)};
-    float* down[2] = {weight_d_.row(0, y), weight_d_.row(1, y)};
-    for (int x = 0; x < cols_; ++x) {
-      const int parity = x & 1, k = x >> 1;
-      left[parity][k] = w.left(x), right[parity][k] = w.right[x];
-      up[parity][k] = w.up[x], down[parity][k] = w.down[x];
-    }
-  });
-}
-
-void LevelSolver::sor_half_sweep(int colour, float omega, SplitField& first, SplitField* second) {
-  const float keep = 1 - omega;
-  for_rows(rows_, cols_, [&](int y) {
-    const int parity = (y + colour) & 1, other = 1 - parity, n = first.count(parity);
-    // Beyond the first and last rows the weight is zero; any finite neighbour value does.
-    const auto up = [&](const SplitField& f) {
-      return y > 0 ? f.row(parity, y - 1) : zero_split_row_.data();
     };
-    const auto down = [&](const SplitField& f) {
-      return y + 1 < rows_ ? f.row(parity, y + 1) : zero_split_row_.data();
+    const auto run = [&]<bool Two>() {
+      for (int x = 0; x < last; ++x) at.template operator()<Two>(x, x + 1);
+      at.template operator()<Two>(last, last);
     };
-    const auto side = [&](const SplitField& f) { return f.row(other, y) + parity - 1; };
-    if (second)
-      sor_row_2d(n, keep, omega, first.row(parity, y), second->row(parity, y), side(first), up(first),
-                 down(first), side(*second), up(*second), down(*second), weight_l_.row(parity, y),
-                 weight_r_.row(parity, y), weight_u_.row(parity, y), weight_d_.row(parity, y),
-                 a11_inv_.row(parity, y), a22_inv_.row(parity, y), a12_.row(parity, y), rhs1_.row(parity, y),
-                 rhs2_.row(parity, y));
+    if (two)
+      run.template operator()<true>();
     else
-      sor_row_1d(n, keep, omega, first.row(parity, y), side(first), up(first), down(first),
-                 weight_l_.row(parity, y), weight_r_.row(parity, y), weight_u_.row(parity, y),
-                 weight_d_.row(parity, y), a11_inv_.row(parity, y), rhs1_.row(parity, y));
+      run.template operator()<false>();
   });
 }
 
-namespace {
-
-// Sum over the four neighbours j of w_ij * f_j.
-inline float weighted_neighbours(const cv::Mat1f& f, const RowWeights& w, int y, int x) {
-  const int rows = f.rows, cols = f.cols;
-  const float* row = f[y];
-  return w.left(x) * row[x > 0 ? x - 1 : x] + w.right[x] * row[x + 1 < cols ? x + 1 : x] +
-         w.up[x] * f[y > 0 ? y - 1 : y][x] + w.down[x] * f[y + 1 < rows ? y + 1 : y][x];
+void LevelSolver::edge_weights(int y, int start, int n, float* left, float* right, float* up,
+                               float* down) const {
+  const float* psi = psi_[y] + start;
+  const float* above = y > 0 ? psi_[y - 1] + start : nullptr;
+  const float* below = y + 1 < rows_ ? psi_[y + 1] + start : nullptr;
+  // Right and left of the block's interior; the row's first and last pixels have no left / right.
+  const int first = start == 0 ? 1 : 0, end = start + n == cols_ ? n - 1 : n;
+  for (int i = 0; i < end; ++i) right[i] = 0.5f * (psi[i] + psi[i + 1]);
+  if (end < n) right[n - 1] = 0.f;
+  for (int i = first; i < n; ++i) left[i] = 0.5f * (psi[i - 1] + psi[i]);
+  if (first) left[0] = 0.f;
+  if (above)
+    for (int i = 0; i < n; ++i) up[i] = 0.5f * (above[i] + psi[i]);
+  else
+    std::fill(up, up + n, 0.f);
+  if (below)
+    for (int i = 0; i < n; ++i) down[i] = 0.5f * (psi[i] + below[i]);
+  else
+    std::fill(down, down + n, 0.f);
 }
 
-}  // namespace
+void LevelSolver::sor_row(int half, int y, float omega, SplitField& first, SplitField* second) {
+  const float keep = 1 - omega;
+  const int parity = (y + half) & 1, other = 1 - parity, n = first.count(parity);
+  // Beyond the first and last rows the weight is zero; any finite neighbour value does.
+  const auto up = [&](const SplitField& f) { return y > 0 ? f.row(parity, y - 1) : zero_split_row_.data(); };
+  const auto down = [&](const SplitField& f) {
+    return y + 1 < rows_ ? f.row(parity, y + 1) : zero_split_row_.data();
+  };
+  const auto side = [&](const SplitField& f) { return f.row(other, y) + parity - 1; };
+  if (second)
+    sor_row_2d(n, keep, omega, first.row(parity, y), second->row(parity, y), side(first), up(first),
+               down(first), side(*second), up(*second), down(*second), weight_l_.row(parity, y),
+               weight_r_.row(parity, y), weight_u_.row(parity, y), weight_d_.row(parity, y),
+               a11_inv_.row(parity, y), a22_inv_.row(parity, y), a12_.row(parity, y), rhs1_.row(parity, y),
+               rhs2_.row(parity, y));
+  else
+    sor_row_1d(n, keep, omega, first.row(parity, y), side(first), up(first), down(first),
+               weight_l_.row(parity, y), weight_r_.row(parity, y), weight_u_.row(parity, y),
+               weight_d_.row(parity, y), a11_inv_.row(parity, y), rhs1_.row(parity, y));
+}
+
+// Red-black SOR in a wavefront. Half-sweep h updates the pixels of colour h & 1 of each row from the
+// other colour's pixels in the row and the rows above and below, as left by half-sweep h - 1. Row y's
+// half-sweep h may therefore run once rows y - 1, y, y + 1 have had half-sweep h - 1 and before rows
+// y - 1 and y + 1 have had h + 1 (which would overwrite those neighbours). Visiting (h, y) by
+// increasing t = y + h, and h increasing within one t, meets both conditions, so the result is
+// exactly that of full half-sweeps one after the other, while only about `halves` rows are live at a
+// time (in cache). Bands of rows run in parallel: first each band's rows that depend on no other band
+// (at half-sweep h, all but the h rows next to each inner band edge), then the strips around each inner
+// edge (rows edge - h to edge + h - 1 at half-sweep h), which only depend on finished work. Neither
+// the band count nor the thread count changes any value.
+void LevelSolver::sor_sweeps(float omega, SplitField& first, SplitField* second) {
+  const int halves = 2 * options_.sor_iterations;
+  // Rows in [lo(h), hi(h)) at each half-sweep h, in wavefront order.
+  const auto wavefront = [&](const auto& lo, const auto& hi) {
+    int t_begin = INT_MAX, t_end = INT_MIN;
+    for (int h = 0; h < halves; ++h)
+      if (lo(h) < hi(h)) t_begin = std::min(t_begin, lo(h) + h), t_end = std::max(t_end, hi(h) + h);
+    for (int t = t_begin; t < t_end; ++t)
+      for (int h = std::max(0, t - rows_ + 1); h < halves && h <= t; ++h) {
+        const int y = t - h;
+        if (y >= lo(h) && y < hi(h)) sor_row(h, y, omega, first, second);
+      }
+  };
+  // Bands at least 3 * halves rows high: the edge strips (2 * halves - 2 rows at most) stay apart.
+  const int bands = std::clamp(rows_ / std::max(3 * halves, 64), 1, 16);
+  const auto edge = [&](int band) {
+    return static_cast<int>(static_cast<std::int64_t>(rows_) * band / bands);
+  };
+  tbb::parallel_for(0, bands, [&](int band) {
+    const int top = edge(band), bottom = edge(band + 1);
+    wavefront([&](int h) { return top == 0 ? 0 : top + h; },
+              [&](int h) { return bottom == rows_ ? rows_ : bottom - h; });
+  });
+  tbb::parallel_for(1, bands, [&](int band) {
+    const int middle = edge(band);
+    wavefront([&](int h) { return middle - h; }, [&](int h) { return middle + h; });
+  });
+}
 
 void LevelSolver::median_filter(cv::Mat1f& field) const {
   if (options_.median_radius == 0) return;
   cv::Mat1f filtered;
   cv::medianBlur(field, filtered, 2 * options_.median_radius + 1);
   field = filtered;
-}
-
-RowWeights LevelSolver::row_weights(int y) const {
-  return {weight_right_[y], weight_down_[y], y > 0 ? weight_down_[y - 1] : zero_row_.data()};
 }
 
 namespace {
@@ -387,7 +470,7 @@ bool LevelSolver::use_device(gpu::IncrementMode mode) const {
   // In the epipolar mode a CUDA request runs the OpenCL kernel (line_increments); both see the same
   // GPU, so the CUDA device's limits stand in for it.
   const gpu::DeviceInfo device = gpu::active_device_info();
-  const gpu::DeviceFootprint need = gpu::increments_footprint(images_.size(), mode);
+  const gpu::DeviceFootprint need = gpu::increments_footprint(images_->size(), mode);
   if (gpu::fits_on(need, device)) return true;
   log::info("flow: a ", cols_, "x", rows_, " level needs ", need.total >> 20, " MiB (largest buffer ",
             need.largest_buffer >> 20, " MiB) but ", device.name, " has ", device.global_memory >> 20,
@@ -412,7 +495,7 @@ bool LevelSolver::device_increments(const cv::Mat1f& u, const cv::Mat1f& v) {
                    continuous(b13_), continuous(b23_), continuous(b33_)};
   in.gradient = {continuous(g11_), continuous(g12_), continuous(g22_),
                  continuous(g13_), continuous(g23_), continuous(g33_)};
-  in.smoothness = continuous(images_.smoothness);
+  in.smoothness = continuous(images_->smoothness);
   in.u = continuous(u), in.v = continuous(v);
   in.options = increment_options();
   return run_on_device([&] { gpu::flow_increments(in, du_, dv_); });
@@ -424,14 +507,15 @@ bool LevelSolver::device_line_increments(const cv::Mat1f& s, const cv::Mat2f& di
                    continuous(b13_), continuous(b23_), continuous(b33_)};
   in.gradient = {continuous(g11_), continuous(g12_), continuous(g22_),
                  continuous(g13_), continuous(g23_), continuous(g33_)};
-  in.smoothness = continuous(images_.smoothness);
+  in.smoothness = continuous(images_->smoothness);
   in.s = continuous(s);
   in.direction = direction.isContinuous() ? direction : cv::Mat2f(direction.clone());
   in.options = increment_options();
   return run_on_device([&] { gpu::line_increments(in, du_); });
 }
 
-void LevelSolver::solve(cv::Mat1f& u, cv::Mat1f& v) {
+void LevelSolver::solve(const LevelImages& images, cv::Mat1f& u, cv::Mat1f& v) {
+  start_level(images);
   bool on_device = use_device(gpu::IncrementMode::free);
   for (int warp = 0; warp < options_.warps; ++warp) {
     compute_tensors(u, v);
@@ -455,48 +539,67 @@ void LevelSolver::cpu_increments(const cv::Mat1f& u, const cv::Mat1f& v) {
   split_dv_.set_zero();
   for (int iteration = 0; iteration < options_.fixed_point_iterations; ++iteration) {
     compute_smoothness(u, du_, v, dv_);
-    // The linear system of this iteration, robust weights frozen (lagged nonlinearity).
+    // The linear system of this iteration, robust weights frozen (lagged nonlinearity), by blocks
+    // of a row: contiguous and vectorised, then split into red-black order.
     for_rows(rows_, cols_, [&](int y) {
-      const RowWeights w = row_weights(y);
       const float *b11 = b11_[y], *b12 = b12_[y], *b22 = b22_[y], *b13 = b13_[y], *b23 = b23_[y],
                   *b33 = b33_[y];
       const float *g11 = g11_[y], *g12 = g12_[y], *g22 = g22_[y], *g13 = g13_[y], *g23 = g23_[y],
                   *g33 = g33_[y];
       const float *du_row = du_[y], *dv_row = dv_[y], *u_row = u[y], *v_row = v[y];
-      float* a11_inv[2] = {a11_inv_.row(0, y), a11_inv_.row(1, y)};
-      float* a22_inv[2] = {a22_inv_.row(0, y), a22_inv_.row(1, y)};
-      float* a12[2] = {a12_.row(0, y), a12_.row(1, y)};
-      float* rhs1[2] = {rhs1_.row(0, y), rhs1_.row(1, y)};
-      float* rhs2[2] = {rhs2_.row(0, y), rhs2_.row(1, y)};
-      for (int x = 0; x < cols_; ++x) {
-        const int parity = x & 1, k = x >> 1;
-        const float du = du_row[x], dv = dv_row[x];
-        const float psi_b = robust_weight(
-            delta, quadratic(b11[x], b12[x], b22[x], b13[x], b23[x], b33[x], du, dv), epsilon_squared);
-        const float psi_g = robust_weight(
-            gamma, quadratic(g11[x], g12[x], g22[x], g13[x], g23[x], g33[x], du, dv), epsilon_squared);
-        const float total = w.total(x);
-        a11_inv[parity][k] = 1.f / (psi_b * b11[x] + psi_g * g11[x] + total + damping);
-        a22_inv[parity][k] = 1.f / (psi_b * b22[x] + psi_g * g22[x] + total + damping);
-        a12[parity][k] = psi_b * b12[x] + psi_g * g12[x];
-        rhs1[parity][k] =
-            weighted_neighbours(u, w, y, x) - total * u_row[x] - (psi_b * b13[x] + psi_g * g13[x]);
-        rhs2[parity][k] =
-            weighted_neighbours(v, w, y, x) - total * v_row[x] - (psi_b * b23[x] + psi_g * g23[x]);
+      const float *u_up = u[y > 0 ? y - 1 : y], *u_down = u[y + 1 < rows_ ? y + 1 : y];
+      const float *v_up = v[y > 0 ? y - 1 : y], *v_down = v[y + 1 < rows_ ? y + 1 : y];
+      for (int start = 0; start < cols_; start += system_block) {
+        const int n = std::min(system_block, cols_ - start);
+        float left[system_block], right[system_block], up[system_block], down[system_block];
+        edge_weights(y, start, n, left, right, up, down);
+        weight_l_.split_block(y, start, n, left);
+        weight_r_.split_block(y, start, n, right);
+        weight_u_.split_block(y, start, n, up);
+        weight_d_.split_block(y, start, n, down);
+        float u_left[system_block], u_right[system_block], v_left[system_block], v_right[system_block];
+        neighbour_values(u_row, start, n, cols_, u_left, u_right);
+        neighbour_values(v_row, start, n, cols_, v_left, v_right);
+        float a11_inv[system_block], a22_inv[system_block], a12[system_block], rhs1[system_block],
+            rhs2[system_block];
+        // The block's arrays and the planes never overlap: no alias checks (too many to vectorise).
+#pragma GCC ivdep
+        for (int i = 0; i < n; ++i) {
+          const int x = start + i;
+          const float du = du_row[x], dv = dv_row[x];
+          const float psi_b = robust_weight(
+              delta, quadratic(b11[x], b12[x], b22[x], b13[x], b23[x], b33[x], du, dv), epsilon_squared);
+          const float psi_g = robust_weight(
+              gamma, quadratic(g11[x], g12[x], g22[x], g13[x], g23[x], g33[x], du, dv), epsilon_squared);
+          const float total = left[i] + right[i] + down[i] + up[i];
+          a11_inv[i] = 1.f / (psi_b * b11[x] + psi_g * g11[x] + total + damping);
+          a22_inv[i] = 1.f / (psi_b * b22[x] + psi_g * g22[x] + total + damping);
+          a12[i] = psi_b * b12[x] + psi_g * g12[x];
+          rhs1[i] = left[i] * u_left[i] + right[i] * u_right[i] + up[i] * u_up[x] + down[i] * u_down[x] -
+                    total * u_row[x] - (psi_b * b13[x] + psi_g * g13[x]);
+          rhs2[i] = left[i] * v_left[i] + right[i] * v_right[i] + up[i] * v_up[x] + down[i] * v_down[x] -
+                    total * v_row[x] - (psi_b * b23[x] + psi_g * g23[x]);
+        }
+        a11_inv_.split_block(y, start, n, a11_inv);
+        a22_inv_.split_block(y, start, n, a22_inv);
+        a12_.split_block(y, start, n, a12);
+        rhs1_.split_block(y, start, n, rhs1);
+        rhs2_.split_block(y, start, n, rhs2);
       }
     });
-    // Red-black: pixels of one colour only depend on the other, so rows run in parallel and the
-    // result does not depend on the thread count.
-    for (int sweep = 0; sweep < options_.sor_iterations; ++sweep)
-      for (int colour = 0; colour < 2; ++colour) sor_half_sweep(colour, omega, split_du_, &split_dv_);
+    // Red-black: pixels of one colour only depend on the other, so bands of rows run in parallel and
+    // the result does not depend on the thread count.
+    sor_sweeps(omega, split_du_, &split_dv_);
     split_du_.merge_into(du_);
     split_dv_.merge_into(dv_);
   }
 }
 
-void LevelSolver::solve_along(cv::Mat1f& s, const cv::Mat2f& base, const cv::Mat2f& direction) {
+void LevelSolver::solve_along(const LevelImages& images, cv::Mat1f& s, const cv::Mat2f& base,
+                              const cv::Mat2f& direction) {
+  start_level(images);
   bool on_device = use_device(gpu::IncrementMode::line);
-  cv::Mat1f u(rows_, cols_), v(rows_, cols_);
+  cv::Mat1f u = pool_.take(rows_, cols_), v = pool_.take(rows_, cols_);
   cv::Mat1f& ds = du_;  // the increment of s; dv_ is unused in this mode
   for (int warp = 0; warp < options_.warps; ++warp) {
     for_rows(rows_, cols_, [&](int y) {
@@ -526,35 +629,50 @@ void LevelSolver::cpu_line_increments(const cv::Mat1f& s, const cv::Mat2f& direc
   for (int iteration = 0; iteration < options_.fixed_point_iterations; ++iteration) {
     compute_smoothness(s, ds, cv::Mat1f(), cv::Mat1f());
     for_rows(rows_, cols_, [&](int y) {
-      const RowWeights w = row_weights(y);
-      const cv::Vec2f* directions = direction[y];
-      const float* ds_row = ds[y];
-      float* a_inv[2] = {a11_inv_.row(0, y), a11_inv_.row(1, y)};
-      float* rhs[2] = {rhs1_.row(0, y), rhs1_.row(1, y)};
-      for (int x = 0; x < cols_; ++x) {
-        const cv::Vec2f d = directions[x];
-        const float dx = std::isfinite(d[0]) ? d[0] : 0.f, dy = std::isfinite(d[1]) ? d[1] : 0.f;
-        const float du = ds_row[x] * dx, dv = ds_row[x] * dy;
-        const float psi_b = robust_weight(
-            delta, quadratic(b11_(y, x), b12_(y, x), b22_(y, x), b13_(y, x), b23_(y, x), b33_(y, x), du, dv),
-            epsilon_squared);
-        const float psi_g = robust_weight(
-            gamma, quadratic(g11_(y, x), g12_(y, x), g22_(y, x), g13_(y, x), g23_(y, x), g33_(y, x), du, dv),
-            epsilon_squared);
-        // The 2-D system projected on the line direction d: d^T A d ds = -d^T c.
-        const float a11 = psi_b * b11_(y, x) + psi_g * g11_(y, x),
-                    a12 = psi_b * b12_(y, x) + psi_g * g12_(y, x);
-        const float a22 = psi_b * b22_(y, x) + psi_g * g22_(y, x);
-        const float c1 = psi_b * b13_(y, x) + psi_g * g13_(y, x),
-                    c2 = psi_b * b23_(y, x) + psi_g * g23_(y, x);
-        const float total = w.total(x);
-        const int parity = x & 1, k = x >> 1;
-        a_inv[parity][k] = 1.f / (dx * dx * a11 + 2 * dx * dy * a12 + dy * dy * a22 + total + damping);
-        rhs[parity][k] = weighted_neighbours(s, w, y, x) - total * s(y, x) - (dx * c1 + dy * c2);
+      const float *b11 = b11_[y], *b12 = b12_[y], *b22 = b22_[y], *b13 = b13_[y], *b23 = b23_[y],
+                  *b33 = b33_[y];
+      const float *g11 = g11_[y], *g12 = g12_[y], *g22 = g22_[y], *g13 = g13_[y], *g23 = g23_[y],
+                  *g33 = g33_[y];
+      const float* directions = direction.ptr<float>(y);  // x and y of each pixel's direction
+      const float *ds_row = ds[y], *s_row = s[y];
+      const float *s_up = s[y > 0 ? y - 1 : y], *s_down = s[y + 1 < rows_ ? y + 1 : y];
+      for (int start = 0; start < cols_; start += system_block) {
+        const int n = std::min(system_block, cols_ - start);
+        float left[system_block], right[system_block], up[system_block], down[system_block];
+        edge_weights(y, start, n, left, right, up, down);
+        weight_l_.split_block(y, start, n, left);
+        weight_r_.split_block(y, start, n, right);
+        weight_u_.split_block(y, start, n, up);
+        weight_d_.split_block(y, start, n, down);
+        float s_left[system_block], s_right[system_block];
+        neighbour_values(s_row, start, n, cols_, s_left, s_right);
+        float a_inv[system_block], rhs[system_block];
+        // The block's arrays and the planes never overlap: no alias checks (too many to vectorise).
+#pragma GCC ivdep
+        for (int i = 0; i < n; ++i) {
+          const int x = start + i;
+          const float d0 = directions[2 * x], d1 = directions[2 * x + 1];
+          // A non-finite component counts as 0 (no data term), as a branchless select.
+          const float dx = keep_if(finite_mask(d0), d0), dy = keep_if(finite_mask(d1), d1);
+          const float du = ds_row[x] * dx, dv = ds_row[x] * dy;
+          const float psi_b = robust_weight(
+              delta, quadratic(b11[x], b12[x], b22[x], b13[x], b23[x], b33[x], du, dv), epsilon_squared);
+          const float psi_g = robust_weight(
+              gamma, quadratic(g11[x], g12[x], g22[x], g13[x], g23[x], g33[x], du, dv), epsilon_squared);
+          // The 2-D system projected on the line direction d: d^T A d ds = -d^T c.
+          const float a11 = psi_b * b11[x] + psi_g * g11[x], a12 = psi_b * b12[x] + psi_g * g12[x];
+          const float a22 = psi_b * b22[x] + psi_g * g22[x];
+          const float c1 = psi_b * b13[x] + psi_g * g13[x], c2 = psi_b * b23[x] + psi_g * g23[x];
+          const float total = left[i] + right[i] + down[i] + up[i];
+          a_inv[i] = 1.f / (dx * dx * a11 + 2 * dx * dy * a12 + dy * dy * a22 + total + damping);
+          rhs[i] = left[i] * s_left[i] + right[i] * s_right[i] + up[i] * s_up[x] + down[i] * s_down[x] -
+                   total * s_row[x] - (dx * c1 + dy * c2);
+        }
+        a11_inv_.split_block(y, start, n, a_inv);
+        rhs1_.split_block(y, start, n, rhs);
       }
     });
-    for (int sweep = 0; sweep < options_.sor_iterations; ++sweep)
-      for (int colour = 0; colour < 2; ++colour) sor_half_sweep(colour, omega, split_du_, nullptr);
+    sor_sweeps(omega, split_du_, nullptr);
     split_du_.merge_into(ds);
   }
 }

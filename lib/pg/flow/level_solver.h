@@ -1,5 +1,6 @@
 #pragma once
 // Internal: one pyramid level of the variational flow solver (see flow.h for the energy).
+#include <cstddef>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -8,13 +9,24 @@
 
 namespace pg::flow_detail {
 
-// The smoothness weights around one row: to the right, below and above each pixel (zero at borders).
-struct RowWeights {
-  const float* right;
-  const float* down;
-  const float* up;
-  float left(int x) const { return x > 0 ? right[x - 1] : 0.f; }
-  float total(int x) const { return left(x) + right[x] + down[x] + up[x]; }
+// Float planes reused from level to level. Each holds as many pixels as the largest level and is
+// handed out as a continuous view of the size asked for, so solving coarse to fine allocates (and
+// page-faults) the memory once instead of once per level. Views stay valid until release_all.
+class PlanePool {
+ public:
+  // Room for largest.area() pixels and a few more per row (a SplitField's padding).
+  explicit PlanePool(cv::Size largest)
+      : capacity_(static_cast<std::size_t>(largest.width + split_padding) * largest.height) {}
+  // An uninitialised rows x cols plane (a fresh allocation if it exceeds the capacity).
+  cv::Mat1f take(int rows, int cols);
+  cv::Mat1f take(cv::Size size) { return take(size.height, size.width); }
+  void release_all() { used_ = 0; }
+
+ private:
+  static constexpr int split_padding = 8;
+  std::size_t capacity_;
+  std::size_t used_ = 0;
+  std::vector<cv::Mat1f> planes_;
 };
 
 // One channel of one image at one level with the derivatives the data term needs.
@@ -26,13 +38,15 @@ struct ImageDerivatives {
 // slot at either end, so an SOR half-sweep reads and writes contiguous memory and vectorises.
 class SplitField {
  public:
-  void create(int rows, int cols);  // all zero
+  void create(int rows, int cols, PlanePool& pool);  // padding zero, pixels uninitialised
   // Pixels of `parity` in row y: pixel x = 2k + parity at index k; indices -1 and count(parity) hold 0.
   float* row(int parity, int y) { return parts_[parity][y] + 1; }
   const float* row(int parity, int y) const { return parts_[parity][y] + 1; }
   int count(int parity) const { return (cols_ - parity + 1) / 2; }
   void set_zero();
   void merge_into(cv::Mat1f& field) const;
+  // Pixels start .. start + n - 1 (start even) of row y, given contiguous.
+  void split_block(int y, int start, int n, const float* values);
 
  private:
   cv::Mat1f parts_[2];
@@ -46,22 +60,25 @@ struct LevelImages {
   cv::Size size() const { return from.front().image.size(); }
 };
 
-// Derivatives of both images and the smoothness weight for one level.
+// Derivatives of both images and the smoothness weight for one level, in planes from `pool`.
 LevelImages prepare_level(const std::vector<cv::Mat1f>& from, const std::vector<cv::Mat1f>& to,
-                          const FlowOptions& options);
+                          const FlowOptions& options, PlanePool& pool);
 
-// Solves one level: warps, lagged fixed-point iterations and red-black SOR. Buffers are allocated
-// once per level; the per-pixel loops allocate nothing. With an accelerated device active
-// (pg/gpu/device.h) each warp's fixed-point iterations run there (pg/gpu/flow_increments.h), in both
-// modes, when the level fits the device's memory; the warp, the tensors and the median stay here.
+// Solves the levels one after the other: warps, lagged fixed-point iterations and red-black SOR.
+// Buffers are allocated once, for the largest level, and reused; the per-pixel loops allocate
+// nothing. With an accelerated device active (pg/gpu/device.h) each warp's fixed-point iterations
+// run there (pg/gpu/flow_increments.h), in both modes, when the level fits the device's memory; the
+// warp, the tensors and the median stay here.
 class LevelSolver {
  public:
-  LevelSolver(const LevelImages& images, const FlowOptions& options);
+  // Levels up to `largest` pixels; `options` must outlive the solver.
+  LevelSolver(cv::Size largest, const FlowOptions& options);
 
-  // Free 2-D flow (u, v), refined in place.
-  void solve(cv::Mat1f& u, cv::Mat1f& v);
+  // Free 2-D flow (u, v) at `images`' level, refined in place. `images` must outlive the call.
+  void solve(const LevelImages& images, cv::Mat1f& u, cv::Mat1f& v);
   // Flow base + s * direction; s refined in place. NaN base: no data term there.
-  void solve_along(cv::Mat1f& s, const cv::Mat2f& base, const cv::Mat2f& direction);
+  void solve_along(const LevelImages& images, cv::Mat1f& s, const cv::Mat2f& base,
+                   const cv::Mat2f& direction);
 
  private:
   // Whether this level's increments run on the active accelerated device: one is active and the
@@ -77,29 +94,35 @@ class LevelSolver {
   gpu::FlowIncrementOptions increment_options() const;
   // Warps `to` by (u, v) and fills the per-pixel motion tensors (blurred in CLG mode).
   void compute_tensors(const cv::Mat1f& u, const cv::Mat1f& v);
-  // Smoothness edge weights from the gradient of a + da (and b + db when b is non-empty).
+  // Takes this level's buffers from the pool.
+  void start_level(const LevelImages& images);
+  // The robust smoothness weight psi_ of each pixel from the gradient of a + da (and b + db when b
+  // is non-empty).
   void compute_smoothness(const cv::Mat1f& a, const cv::Mat1f& da, const cv::Mat1f& b, const cv::Mat1f& db);
+  // The edge weights of row y's pixels x in [start, start + n) to the left, right, above and below
+  // (the mean of both pixels' psi, zero across the border), contiguous from index 0.
+  void edge_weights(int y, int start, int n, float* left, float* right, float* up, float* down) const;
 
-  RowWeights row_weights(int y) const;
-  // The SOR weights in red-black order from weight_right_ / weight_down_.
-  void split_weights();
-  // One red-black SOR half-sweep over the pixels x + y = colour (mod 2): the 2-D system (free flow)
-  // or, with `second` null, the scalar one (epipolar mode).
-  void sor_half_sweep(int colour, float omega, SplitField& first, SplitField* second);
+  // All SOR sweeps of one fixed-point iteration: the 2-D system (free flow) or, with `second` null,
+  // the scalar one (epipolar mode). Bands of rows run in parallel, each sweeping its rows in a
+  // wavefront that keeps the sweeps' working set in cache; the result equals that of full
+  // half-sweeps one after the other (see the definition).
+  void sor_sweeps(float omega, SplitField& first, SplitField* second);
+  // Half-sweep `half` (colour half & 1: the pixels with x + y = colour mod 2) on row y.
+  void sor_row(int half, int y, float omega, SplitField& first, SplitField* second);
   // options_.median_radius median of a flow component or s, in place (no-op at radius 0).
   void median_filter(cv::Mat1f& field) const;
 
-  const LevelImages& images_;
   const FlowOptions& options_;
-  int rows_, cols_;
+  PlanePool pool_;
+  const LevelImages* images_ = nullptr;
+  int rows_ = 0, cols_ = 0;
   // Motion tensors of brightness (b..) and gradient (g..) constancy: entries 11 12 22 13 23 33 of
   // the quadratic form w^T J w in w = (du, dv, 1), already normalised and summed over channels.
   cv::Mat1f b11_, b12_, b22_, b13_, b23_, b33_, g11_, g12_, g22_, g13_, g23_, g33_;
-  cv::Mat1f psi_;                         // smoothness weight of each pixel
-  cv::Mat1f weight_right_, weight_down_;  // smoothness weight between x and its right / lower neighbour
-  std::vector<float> zero_row_;           // weights above the first row
-  cv::Mat1f du_, dv_;                     // increments of the current warp
-  SplitField split_du_, split_dv_;        // the same, in red-black order, updated by SOR
+  cv::Mat1f psi_;                   // smoothness weight of each pixel
+  cv::Mat1f du_, dv_;               // increments of the current warp
+  SplitField split_du_, split_dv_;  // the same, in red-black order, updated by SOR
   // The linear system of the current iteration and the smoothness weights to the left, right, above
   // and below each pixel, in red-black order.
   SplitField a11_inv_, a22_inv_, a12_, rhs1_, rhs2_, weight_l_, weight_r_, weight_u_, weight_d_;
