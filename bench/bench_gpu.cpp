@@ -8,7 +8,7 @@
 //          integrated into a TsdfVolume at a 1 cm voxel (leaf collection, the kernel and the copies
 //          in and out of the OpenVDB grids), on the CPU and with the OpenCL kernel.
 // Prints each path's time, the ratio and the largest difference (which the tests bound).
-// The rasterizer has no OpenCL kernel yet, so it is not timed here.
+// The rasterizer is timed by bench_render_gpu.
 #include <chrono>
 #include <cmath>
 #include <cstdio>

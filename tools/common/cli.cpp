@@ -133,8 +133,9 @@ Frame::Frame(ToolInfo info) : info_(std::move(info)), app_(info_.summary, info_.
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "lines", "off"}));
   app_.add_option("--device", device_,
-                  "where accelerated stages run: cpu, opencl, cuda or auto (a GPU when one is usable); "
-                  "falls back to the CPU with a notice")
+                  "where accelerated stages run (the flow solver of pg-depth, pg-sphdepth and pg-refine, "
+                  "pg-refine's rasterizer, pg-merge's TSDF integration): cpu, opencl, cuda or auto (a GPU "
+                  "when one is usable); falls back to the CPU with a notice")
       ->capture_default_str()
       ->check(CLI::IsMember({"cpu", "opencl", "cuda", "auto"}));
   app_.footer("Example:\n" + info_.example + "\n\n" + exit_code_help());

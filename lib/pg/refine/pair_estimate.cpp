@@ -8,6 +8,7 @@
 
 #include "pg/core/error.h"
 #include "pg/core/parallel.h"
+#include "pg/gpu/rasterizer_opencl.h"
 #include "pg/image/image_io.h"
 
 namespace pg {
@@ -67,7 +68,8 @@ RefineViewState make_view_state(const RefineView& view, double scale) {
 void render_view_state(const Mesh& mesh, RefineViewState& state) {
   RenderOptions options;
   options.shading = Shading::none;
-  state.renderer.render(mesh, state.camera, state.rays, options, state.buffers);
+  // On the active device (the CPU renderer unchanged when that is the CPU).
+  gpu::render(state.renderer, mesh, state.camera, state.rays, options, state.buffers);
 }
 
 void synthesize(const Mesh& mesh, const RefineViewState& a, const RefineViewState& b,

@@ -11,7 +11,7 @@
 namespace pg {
 namespace {
 
-constexpr int kTile = 32;
+constexpr int kTile = Renderer::kTileSize;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // Tie rule for rays exactly on an edge plane: the plane normal's first non-zero component decides.
@@ -39,8 +39,8 @@ Eigen::Vector3d surface_point(const Mesh& mesh, const RenderBuffers& buffers, in
          w2 * mesh.positions[f[2]].cast<double>();
 }
 
-void Renderer::render(const Mesh& mesh, const Camera& camera, const RayTable& rays,
-                      const RenderOptions& options, RenderBuffers& out) {
+void Renderer::prepare(const Mesh& mesh, const Camera& camera, const RayTable& rays,
+                       const RenderOptions& options) {
   if (!rays.matches(camera))
     throw UsageError(str("render: the ray table was not built for camera \"", camera.id, "\""));
   std::size_t n = mesh.positions.size();
@@ -56,7 +56,11 @@ void Renderer::render(const Mesh& mesh, const Camera& camera, const RayTable& ra
   });
   setup_triangles(mesh, rays, options);
   bin_triangles(rays);
+}
 
+void Renderer::render(const Mesh& mesh, const Camera& camera, const RayTable& rays,
+                      const RenderOptions& options, RenderBuffers& out) {
+  prepare(mesh, camera, rays, options);
   DepthMeasure kind = resolve_depth_measure(options.depth_kind, camera);
   std::size_t pixels = std::size_t(rays.width()) * rays.height();
   out.width = rays.width();
@@ -67,10 +71,15 @@ void Renderer::render(const Mesh& mesh, const Camera& camera, const RayTable& ra
   out.b2.resize(pixels);
   out.depth.create(rays.height(), rays.width(), CV_32F);
   rasterize_tiles(rays, options, kind, out);
+  shade(mesh, camera, rays, options, out);
+}
+
+void Renderer::shade(const Mesh& mesh, const Camera& camera, const RayTable& rays,
+                     const RenderOptions& options, RenderBuffers& out) const {
   if (options.shading == Shading::none)
     out.color.release();
   else
-    shade(mesh, camera, rays, options, out);
+    shade_colors(mesh, camera, rays, options, out);
 }
 
 void Renderer::setup_triangles(const Mesh& mesh, const RayTable& rays, const RenderOptions& options) {
@@ -198,8 +207,8 @@ void Renderer::rasterize_tiles(const RayTable& rays, const RenderOptions& option
   });
 }
 
-void Renderer::shade(const Mesh& mesh, const Camera& camera, const RayTable& rays,
-                     const RenderOptions& options, RenderBuffers& out) const {
+void Renderer::shade_colors(const Mesh& mesh, const Camera& camera, const RayTable& rays,
+                            const RenderOptions& options, RenderBuffers& out) const {
   const std::size_t n = mesh.positions.size();
   const bool has_texture = options.texture && !options.texture->empty() && mesh.uvs.size() == n;
   const bool has_colors = mesh.colors.size() == n;

@@ -52,7 +52,7 @@ struct RenderBuffers {
   std::vector<float> b1, b2;  // barycentric weights of the face's vertices 1 and 2; b0 = 1 - b1 - b2
   cv::Mat depth;              // CV_32F, NaN where no hit
   DepthMeasure depth_kind = DepthMeasure::z;  // what depth holds (never automatic)
-  cv::Mat color;                        // CV_32FC3 linear (texture channel order; vertex colours as BGR)
+  cv::Mat color;  // CV_32FC3 linear (texture channel order; vertex colours as BGR)
 
   std::size_t index(int x, int y) const { return std::size_t(y) * width + x; }
   std::uint32_t triangle_at(int x, int y) const { return triangle[index(x, y)]; }
@@ -72,18 +72,41 @@ class Renderer {
   void render(const Mesh& mesh, const Camera& camera, const RayTable& rays, const RenderOptions& options,
               RenderBuffers& out);
 
- private:
+  // What render() rasterizes from, exposed so that an accelerated rasterizer (pg/gpu) runs the same
+  // per-pixel tests on the same data and agrees with render() bit for bit. prepare() validates the
+  // inputs and computes the triangle setups and tile bins; render() is prepare(), the per-pixel loop of
+  // rasterize_tiles() and shade().
   struct TriangleSetup {
     float edge[3][3];      // edge-plane normals, oriented so a ray d is inside iff all dot(d, edge[i]) > 0
     float depth_plane[3];  // plane normal / (plane offset): range along unit ray d = 1 / dot(d, depth_plane)
     std::uint8_t tie = 0;  // bit i: rays exactly on edge plane i belong to this triangle
   };
+  // Tiles are kTileSize x kTileSize pixels; tile (tx, ty) is number ty * tiles_x() + tx.
+  static constexpr int kTileSize = 32;
+  void prepare(const Mesh& mesh, const Camera& camera, const RayTable& rays, const RenderOptions& options);
+  // Per face (valid after prepare): its setup and its pixel boxes (box_counts()[t] of them, 0 for faces
+  // that are culled, degenerate or outside the image; their setups are then meaningless).
+  const std::vector<TriangleSetup>& triangle_setups() const { return setups_; }
+  const std::vector<std::array<PixelBox, 2>>& pixel_boxes() const { return boxes_; }
+  const std::vector<std::uint8_t>& box_counts() const { return box_counts_; }
+  int tiles_x() const { return tiles_x_; }
+  int tiles_y() const { return tiles_y_; }
+  // The faces of tile k are tile_triangles()[tile_offsets()[k] .. tile_offsets()[k + 1]), in index order
+  // (the first of equal depths wins).
+  const std::vector<std::uint32_t>& tile_offsets() const { return tile_offsets_; }
+  const std::vector<std::uint32_t>& tile_triangles() const { return tile_triangles_; }
+  // Fills out.color from out.triangle and the barycentrics (after prepare() for the same view; does
+  // nothing but release the colour for Shading::none).
+  void shade(const Mesh& mesh, const Camera& camera, const RayTable& rays, const RenderOptions& options,
+             RenderBuffers& out) const;
+
+ private:
   void setup_triangles(const Mesh& mesh, const RayTable& rays, const RenderOptions& options);
   void bin_triangles(const RayTable& rays);
   void rasterize_tiles(const RayTable& rays, const RenderOptions& options, DepthMeasure kind,
                        RenderBuffers& out);
-  void shade(const Mesh& mesh, const Camera& camera, const RayTable& rays, const RenderOptions& options,
-             RenderBuffers& out) const;
+  void shade_colors(const Mesh& mesh, const Camera& camera, const RayTable& rays,
+                    const RenderOptions& options, RenderBuffers& out) const;
 
   std::vector<Eigen::Vector3d> cam_positions_;
   std::vector<TriangleSetup> setups_;
