@@ -8,6 +8,8 @@
 #include <cstdint>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <optional>
 #include <string>
 
 #include "pg/core/error.h"
@@ -52,9 +54,30 @@ Imf::FrameBuffer frame_buffer(const std::vector<Slice>& slices, const Imath::Box
   return buffer;
 }
 
-// Walks the header's attributes (name, type, int32 size, value) and rejects one that claims more
-// bytes than the file holds. OpenEXR's C++ reader allocates an attribute of unknown type at the size
-// its header states before reading it: a corrupt size would make it allocate (and clear) gigabytes.
+// OpenEXR 3.1's C++ header reader consumes known attribute types by their structure, not by the size
+// the header states: fixed-size types read their fixed size, a channel list reads up to its empty
+// name, a preview reads width x height pixels. Other types (strings, vectors, unknown ones) read the
+// stated size. These are the fixed sizes.
+std::optional<std::int64_t> fixed_attribute_size(const std::string& type) {
+  static const std::map<std::string, std::int64_t> sizes = {{"box2i", 16},      {"box2f", 16},
+                                                            {"compression", 1}, {"lineOrder", 1},
+                                                            {"envmap", 1},      {"deepImageState", 1},
+                                                            {"int", 4},         {"float", 4},
+                                                            {"double", 8},      {"v2i", 8},
+                                                            {"v2f", 8},         {"v2d", 16},
+                                                            {"v3i", 12},        {"v3f", 12},
+                                                            {"v3d", 24},        {"m33f", 36},
+                                                            {"m33d", 72},       {"m44f", 64},
+                                                            {"m44d", 128},      {"chromaticities", 32},
+                                                            {"keycode", 28},    {"rational", 8},
+                                                            {"timecode", 8},    {"tiledesc", 9}};
+  const auto it = sizes.find(type);
+  return it == sizes.end() ? std::nullopt : std::optional(it->second);
+}
+
+// Walks the header's attributes the way OpenEXR's C++ reader will and rejects one that would make it
+// allocate more bytes than the file holds (a string or an unknown attribute is allocated at its
+// stated size before it is read: a corrupt size would allocate, and clear, gigabytes).
 void check_attribute_sizes(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   in.seekg(0, std::ios::end);
@@ -77,20 +100,35 @@ void check_attribute_sizes(const fs::path& path) {
     }
     return false;
   };
+  const auto require_bytes = [&](const std::string& name, std::int64_t bytes) {
+    const std::int64_t remaining = file_size - std::int64_t(in.tellg());
+    if (bytes < 0 || bytes > remaining)
+      throw InputError(path, str("OpenEXR header attribute '", name, "' needs ", bytes, " bytes but ",
+                                 remaining, " remain in the file"));
+  };
   std::int32_t magic = 0, version = 0;
   if (!read_int(magic) || !read_int(version)) return;  // the core preflight names the problem
   const bool multipart = (version & 0x1000) != 0;
   for (int header = 0;; ++header) {
-    std::string name, type;
+    std::string name, type, channel;
     int attributes = 0;
     while (read_name(name) && !name.empty()) {
       std::int32_t size = 0;
       if (!read_name(type) || !read_int(size)) return;
-      const std::int64_t remaining = file_size - std::int64_t(in.tellg());
-      if (size < 0 || size > remaining)
-        throw InputError(path, str("OpenEXR header attribute '", name, "' claims ", size, " bytes but ",
-                                   remaining, " remain in the file"));
-      in.seekg(size, std::ios::cur);
+      if (type == "chlist") {
+        while (read_name(channel) && !channel.empty()) in.seekg(16, std::ios::cur);
+      } else if (type == "preview") {
+        std::int32_t width = 0, height = 0;
+        if (!read_int(width) || !read_int(height)) return;
+        require_bytes(name, 4 * std::int64_t(std::uint32_t(width)) * std::uint32_t(height));
+        in.seekg(4 * std::int64_t(std::uint32_t(width)) * std::uint32_t(height), std::ios::cur);
+      } else if (const auto fixed = fixed_attribute_size(type)) {
+        in.seekg(*fixed, std::ios::cur);
+      } else {
+        require_bytes(name, size);
+        in.seekg(size, std::ios::cur);
+      }
+      if (!in) return;
       ++attributes;
     }
     // A single-part file has one header; a multi-part file ends its list with an empty header.
