@@ -10,31 +10,13 @@
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
+#include "bench_meshes.h"
 #include "pg/core/parallel.h"
 #include "pg/render/rasterizer.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-pg::Mesh displaced_sphere(int rings, int segments) {
-  pg::Mesh mesh;
-  for (int i = 0; i <= rings; ++i)
-    for (int j = 0; j <= segments; ++j) {
-      const double theta = std::numbers::pi * i / rings, phi = 2 * std::numbers::pi * j / segments;
-      const double r = 1 + 0.04 * std::sin(9 * theta) * std::cos(7 * phi);
-      mesh.positions.emplace_back(float(r * std::sin(theta) * std::cos(phi)), float(r * std::cos(theta)),
-                                  float(r * std::sin(theta) * std::sin(phi)));
-      mesh.uvs.emplace_back(float(j) / segments, 1 - float(i) / rings);
-    }
-  auto id = [&](int i, int j) { return std::uint32_t(i * (segments + 1) + j); };
-  for (int i = 0; i < rings; ++i)
-    for (int j = 0; j < segments; ++j) {
-      if (i > 0) mesh.faces.push_back({id(i, j), id(i, j + 1), id(i + 1, j + 1)});
-      if (i + 1 < rings) mesh.faces.push_back({id(i, j), id(i + 1, j + 1), id(i + 1, j)});
-    }
-  return mesh;
-}
 
 cv::Mat checker_texture(int size) {
   cv::Mat image(size, size, CV_8UC3);
@@ -92,7 +74,7 @@ void naive_zbuffer(const std::vector<Eigen::Vector3d>& screen, const pg::Mesh& m
 
 int main(int argc, char** argv) {
   if (argc > 1) pg::set_thread_count(std::atoi(argv[1]));  // optional: thread count
-  const pg::Mesh mesh = displaced_sphere(224, 224);
+  const pg::Mesh mesh = pg::bench::displaced_sphere(224, 224);
   pg::Camera camera;
   camera.id = "bench";
   camera.width = 640, camera.height = 480;

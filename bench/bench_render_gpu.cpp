@@ -11,6 +11,7 @@
 #include <functional>
 #include <numbers>
 
+#include "bench_meshes.h"
 #include "pg/core/parallel.h"
 #include "pg/gpu/device.h"
 #include "pg/gpu/rasterizer_opencl.h"
@@ -18,24 +19,6 @@
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-pg::Mesh displaced_sphere(int rings, int segments) {
-  pg::Mesh mesh;
-  for (int i = 0; i <= rings; ++i)
-    for (int j = 0; j <= segments; ++j) {
-      const double theta = std::numbers::pi * i / rings, phi = 2 * std::numbers::pi * j / segments;
-      const double r = 1 + 0.04 * std::sin(9 * theta) * std::cos(7 * phi);
-      mesh.positions.emplace_back(float(r * std::sin(theta) * std::cos(phi)), float(r * std::cos(theta)),
-                                  float(r * std::sin(theta) * std::sin(phi)));
-    }
-  auto id = [&](int i, int j) { return std::uint32_t(i * (segments + 1) + j); };
-  for (int i = 0; i < rings; ++i)
-    for (int j = 0; j < segments; ++j) {
-      if (i > 0) mesh.faces.push_back({id(i, j), id(i, j + 1), id(i + 1, j + 1)});
-      if (i + 1 < rings) mesh.faces.push_back({id(i, j), id(i + 1, j + 1), id(i + 1, j)});
-    }
-  return mesh;
-}
 
 // The best of `repeats` frames, in seconds, after one warm-up frame (kernel compilation, first upload).
 double best_time(int repeats, const std::function<void()>& frame) {
@@ -52,7 +35,7 @@ double best_time(int repeats, const std::function<void()>& frame) {
 }  // namespace
 
 int main() {
-  const pg::Mesh mesh = displaced_sphere(224, 224);
+  const pg::Mesh mesh = pg::bench::displaced_sphere(224, 224);
   pg::Camera camera;
   camera.id = "bench";
   camera.width = 1536, camera.height = 1024;

@@ -376,6 +376,15 @@ void LevelSolver::edge_weights(int y, int start, int n, float* left, float* righ
     std::fill(down, down + n, 0.f);
 }
 
+void LevelSolver::edge_weights_for_sor(int y, int start, int n, float* left, float* right, float* up,
+                                       float* down) {
+  edge_weights(y, start, n, left, right, up, down);
+  weight_l_.split_block(y, start, n, left);
+  weight_r_.split_block(y, start, n, right);
+  weight_u_.split_block(y, start, n, up);
+  weight_d_.split_block(y, start, n, down);
+}
+
 void LevelSolver::sor_row(int half, int y, float omega, SplitField& first, SplitField* second) {
   const float keep = 1 - omega;
   const int parity = (y + half) & 1, other = 1 - parity, n = first.count(parity);
@@ -552,11 +561,7 @@ void LevelSolver::cpu_increments(const cv::Mat1f& u, const cv::Mat1f& v) {
       for (int start = 0; start < cols_; start += system_block) {
         const int n = std::min(system_block, cols_ - start);
         float left[system_block], right[system_block], up[system_block], down[system_block];
-        edge_weights(y, start, n, left, right, up, down);
-        weight_l_.split_block(y, start, n, left);
-        weight_r_.split_block(y, start, n, right);
-        weight_u_.split_block(y, start, n, up);
-        weight_d_.split_block(y, start, n, down);
+        edge_weights_for_sor(y, start, n, left, right, up, down);
         float u_left[system_block], u_right[system_block], v_left[system_block], v_right[system_block];
         neighbour_values(u_row, start, n, cols_, u_left, u_right);
         neighbour_values(v_row, start, n, cols_, v_left, v_right);
@@ -639,11 +644,7 @@ void LevelSolver::cpu_line_increments(const cv::Mat1f& s, const cv::Mat2f& direc
       for (int start = 0; start < cols_; start += system_block) {
         const int n = std::min(system_block, cols_ - start);
         float left[system_block], right[system_block], up[system_block], down[system_block];
-        edge_weights(y, start, n, left, right, up, down);
-        weight_l_.split_block(y, start, n, left);
-        weight_r_.split_block(y, start, n, right);
-        weight_u_.split_block(y, start, n, up);
-        weight_d_.split_block(y, start, n, down);
+        edge_weights_for_sor(y, start, n, left, right, up, down);
         float s_left[system_block], s_right[system_block];
         neighbour_values(s_row, start, n, cols_, s_left, s_right);
         float a_inv[system_block], rhs[system_block];

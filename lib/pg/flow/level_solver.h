@@ -102,6 +102,8 @@ class LevelSolver {
   // The edge weights of row y's pixels x in [start, start + n) to the left, right, above and below
   // (the mean of both pixels' psi, zero across the border), contiguous from index 0.
   void edge_weights(int y, int start, int n, float* left, float* right, float* up, float* down) const;
+  // The same, also stored in the red-black weight fields the SOR sweeps read.
+  void edge_weights_for_sor(int y, int start, int n, float* left, float* right, float* up, float* down);
 
   // All SOR sweeps of one fixed-point iteration: the 2-D system (free flow) or, with `second` null,
   // the scalar one (epipolar mode). Bands of rows run in parallel, each sweeping its rows in a
