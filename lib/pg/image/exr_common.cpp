@@ -102,9 +102,13 @@ void check_attribute_sizes(const fs::path& path) {
   };
   const auto require_bytes = [&](const std::string& name, std::int64_t bytes) {
     const std::int64_t remaining = file_size - std::int64_t(in.tellg());
-    if (bytes < 0 || bytes > remaining)
-      throw InputError(path, str("OpenEXR header attribute '", name, "' needs ", bytes, " bytes but ",
+    if (bytes < 0 || bytes > remaining) {
+      std::string printable = name;  // a corrupt name must not garble the one-line error
+      for (char& c : printable)
+        if (c < 0x20 || c > 0x7e) c = '?';
+      throw InputError(path, str("OpenEXR header attribute '", printable, "' needs ", bytes, " bytes but ",
                                  remaining, " remain in the file"));
+    }
   };
   std::int32_t magic = 0, version = 0;
   if (!read_int(magic) || !read_int(version)) return;  // the core preflight names the problem
@@ -120,8 +124,12 @@ void check_attribute_sizes(const fs::path& path) {
       } else if (type == "preview") {
         std::int32_t width = 0, height = 0;
         if (!read_int(width) || !read_int(height)) return;
-        require_bytes(name, 4 * std::int64_t(std::uint32_t(width)) * std::uint32_t(height));
-        in.seekg(4 * std::int64_t(std::uint32_t(width)) * std::uint32_t(height), std::ios::cur);
+        // RGBA bytes of width x height, saturated: (2^32)^2 x 4 does not fit in 64 bits.
+        const std::uint64_t pixels = std::uint64_t(std::uint32_t(width)) * std::uint32_t(height);
+        const std::int64_t bytes =
+            pixels > std::uint64_t(INT64_MAX / 4) ? INT64_MAX : std::int64_t(4 * pixels);
+        require_bytes(name, bytes);
+        in.seekg(bytes, std::ios::cur);
       } else if (const auto fixed = fixed_attribute_size(type)) {
         in.seekg(*fixed, std::ios::cur);
       } else {
