@@ -12,6 +12,7 @@
 #include "pg/core/provenance.h"
 #include "pg/eval/flo_io.h"
 #include "pg/image/depth_exr.h"
+#include "pg/image/exif.h"
 #include "pg/image/image_io.h"
 #include "pg/mesh/obj_io.h"
 #include "pg/mesh/ply_io.h"
@@ -28,6 +29,7 @@ const std::map<std::string, std::function<void(const fs::path&)>>& readers() {
   static const std::map<std::string, std::function<void(const fs::path&)>> table = {
       {"cameras", [](const fs::path& p) { pg::read_cameras(p); }},
       {"depth_exr", [](const fs::path& p) { pg::read_depth_exr(p); }},
+      {"exif", [](const fs::path& p) { pg::focal_px_from_exif(pg::read_exif_focal(p), 4000, 3000); }},
       {"image", [](const fs::path& p) { pg::read_image(p); }},
       {"ply_mesh", [](const fs::path& p) { pg::read_mesh_ply(p); }},
       {"point_cloud", [](const fs::path& p) { pg::read_point_cloud_ply(p); }},

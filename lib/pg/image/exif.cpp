@@ -136,7 +136,7 @@ ExifFocal parse_tiff(const Tiff& tiff) {
     if (e.tag == kFocalLength35mm) exif.focal_35mm = positive(number(tiff, e));
     if (e.tag == kFocalPlaneXResolution) plane_resolution = positive(number(tiff, e));
     if (e.tag == kPixelXDimension)
-      if (auto w = positive(number(tiff, e))) exif.pixel_width = static_cast<int>(*w);
+      if (auto w = positive(number(tiff, e)); w && *w <= 1 << 20) exif.pixel_width = static_cast<int>(*w);
     if (e.tag == kFocalPlaneResolutionUnit) {
       const auto unit = number(tiff, e).value_or(2);
       unit_mm = unit == 3 ? 10.0 : unit == 4 ? 1.0 : unit == 5 ? 1e-3 : 25.4;
