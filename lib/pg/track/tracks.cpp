@@ -42,6 +42,7 @@ Track track_from_json(const nlohmann::json& j, const std::filesystem::path& path
   Track track;
   track.point = static_cast<int>(r.has("point") ? r.integer("point") : -1);
   if (track.point < -1) r.fail("point must be -1 or a point index");
+  if (!j.is_object() || !j.contains("observations")) r.fail("a track needs its observations");
   const nlohmann::json& obs = j.at("observations");
   if (!obs.is_array() || obs.size() % 3 != 0) r.fail("observations must be an array of frame, x, y triples");
   const std::size_t count = obs.size() / 3;
