@@ -14,7 +14,8 @@ examples="$root/formats/examples"
 seeds="$root/fuzz/seeds"
 regressions="$root/testdata/fuzz-regressions"
 
-all_targets=(cameras depth_exr image ply_mesh point_cloud obj vertex_mask tracks pg_json flo brush_strokes exif)
+all_targets=(cameras depth_exr image ply_mesh point_cloud obj vertex_mask tracks pg_json flo brush_strokes exif
+  scan scan_lists)
 targets=("${@:-${all_targets[@]}}")
 
 if [ ! -f "$build/build.ninja" ]; then
@@ -37,15 +38,17 @@ seed_files() {
     flo) ls "$seeds"/flo/* ;;
     brush_strokes) ls "$examples"/brush-strokes.json ;;
     exif) ls "$seeds"/exif/* ;;
+    scan) ls "$examples"/*.ply "$seeds"/ply/* "$seeds"/scan/* ;;
+    scan_lists) ls "$examples"/rgbd-poses.txt "$seeds"/scan_lists/* ;;
   esac
   if [ -d "$regressions/$1" ]; then find "$regressions/$1" -type f; fi
 }
 
 dict_of() {
   case "$1" in
-    ply_mesh | point_cloud) echo "$root/fuzz/dicts/ply.dict" ;;
+    ply_mesh | point_cloud | scan) echo "$root/fuzz/dicts/ply.dict" ;;
     obj) echo "$root/fuzz/dicts/obj.dict" ;;
-    depth_exr | image | flo | exif) echo "" ;;
+    depth_exr | image | flo | exif | scan_lists) echo "" ;;
     *) echo "$root/fuzz/dicts/json.dict" ;;
   esac
 }

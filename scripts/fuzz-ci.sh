@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # CI's short fuzz run: every reader fuzz target for a few seconds each (default 30; the total stays
-# near 6 minutes for 11 targets on 2 cores), plus every saved regression input. Skipped with a
+# near 8 minutes for 14 targets on 2 cores), plus every saved regression input. Skipped with a
 # message when clang-14 or libFuzzer is missing (scripts/install-deps.sh installs them).
 #   scripts/fuzz-ci.sh [seconds-per-target]
 set -euo pipefail

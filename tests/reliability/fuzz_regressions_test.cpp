@@ -11,6 +11,8 @@
 #include "pg/core/json_file.h"
 #include "pg/core/provenance.h"
 #include "pg/eval/flo_io.h"
+#include "pg/fusion/depth_frame.h"
+#include "pg/fusion/scan.h"
 #include "pg/image/depth_exr.h"
 #include "pg/image/exif.h"
 #include "pg/image/image_io.h"
@@ -38,6 +40,27 @@ const std::map<std::string, std::function<void(const fs::path&)>>& readers() {
       {"tracks", [](const fs::path& p) { pg::read_tracks(p); }},
       {"flo", [](const fs::path& p) { pg::read_flo(p); }},
       {"brush_strokes", [](const fs::path& p) { pg::read_brush_strokes(p); }},
+      {"scan",
+       [](const fs::path& p) {
+         // Like the fuzz target: every scan reader must refuse the input cleanly, not just the first.
+         for (const auto& read : {std::function<void()>([&] { pg::fusion::read_scan_mesh(p); }),
+                                  std::function<void()>([&] { pg::fusion::read_scan_points(p); })}) {
+           try {
+             read();
+           } catch (const pg::InputError& e) {
+             EXPECT_NE(std::string(e.what()).find(p.string()), std::string::npos) << e.what();
+           }
+         }
+         pg::fusion::inspect_scan(p);
+       }},
+      {"scan_lists",
+       [](const fs::path& p) {
+         try {
+           pg::fusion::read_stanford_conf(p);
+         } catch (const pg::InputError&) {
+         }
+         pg::fusion::cameras_from_pose_list(p, {525, 525, 319.5, 239.5}, 640, 480);
+       }},
       {"pg_json",
        [](const fs::path& p) {
          const nlohmann::json doc = pg::read_json_file(p);

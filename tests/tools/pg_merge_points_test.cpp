@@ -72,6 +72,33 @@ TEST(PgMergePoints, PerPointOriginsNeedNoSensorOption) {
   EXPECT_GT(eval.recall[0], 0.95);
 }
 
+TEST(PgMergePoints, ColouredPointsGiveAColouredMesh) {
+  TempDir dir;
+  auto sweep = fusion::testing::lidar_sweep(room(), sensor, 240, 120);
+  // The wall x = 2 is red, everything else grey.
+  for (auto& p : sweep)
+    p.color = p.position.x() > 1.99 ? std::array<std::uint8_t, 3>{200, 0, 0}
+                                    : std::array<std::uint8_t, 3>{90, 90, 90};
+  fusion::testing::write_plain_points(dir / "sweep.ply", sweep, {.colors = true});
+  const auto r = run_tool(
+      "pg-merge", volume_args(dir / "sweep.ply", dir / "m.ply", {"--sensor-origin", "0.25,-0.5,1.25"}));
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const Mesh merged = read_mesh(dir / "m.ply");
+  ASSERT_EQ(merged.colors.size(), merged.vertex_count());
+  std::size_t checked = 0;
+  for (std::size_t v = 0; v < merged.vertex_count(); ++v) {
+    const Eigen::Vector3f& p = merged.positions[v];
+    const bool on_red_wall = p.x() > 1.9 && std::abs(p.y()) < 1.3 && p.z() > 0.2 && p.z() < 2.3;
+    const bool far_from_it = p.x() < 1.5;
+    if (!on_red_wall && !far_from_it) continue;
+    const std::array<std::uint8_t, 3> expected =
+        on_red_wall ? std::array<std::uint8_t, 3>{200, 0, 0} : std::array<std::uint8_t, 3>{90, 90, 90};
+    EXPECT_EQ(merged.colors[v], expected) << "vertex " << v << " at " << p.transpose();
+    ++checked;
+  }
+  EXPECT_GT(checked, merged.vertex_count() / 2);
+}
+
 TEST(PgMergePoints, SensorOptionsAreUsageErrors) {
   TempDir dir;
   fusion::testing::write_plain_points(dir / "sweep.ply",

@@ -369,7 +369,8 @@ int main(int argc, char** argv) {
       InputOptions& o = whole ? volume_inputs : integrate_inputs;
       const auto inputs = list_inputs(frame, o);
       bool color = false;
-      for (const auto& in : inputs) color |= !in.color.empty();
+      for (const auto& in : inputs)
+        color |= !in.color.empty() || (in.kind == InputKind::scan && inspect_scan(in.path).has_color);
       if (whole) {
         if (!volume_out.out.empty()) frame.output(volume_out.out);
         if (!volume_out.vdb.empty()) frame.output(volume_out.vdb);

@@ -114,11 +114,19 @@ Mesh read_range_grid(const std::filesystem::path& path, double max_edge_factor) 
   if (!h.ascii) throw InputError(path, "only ascii range-grid PLY files are supported");
   if (h.has_vertex_list) throw InputError(path, "list properties on range-grid vertices are not supported");
   if (h.x_index < 0 || h.y_index < 0 || h.z_index < 0) throw InputError(path, "vertices lack x, y or z");
-  if (h.rows == 0 || h.cols == 0 || h.rows * h.cols != h.cells)
+  if (h.rows == 0 || h.cols == 0 || h.rows > max_grid_cells || h.cols > max_grid_cells ||
+      h.rows * h.cols != h.cells)
     throw InputError(path, str("range_grid has ", h.cells, " cells but obj_info num_rows x num_cols is ",
                                h.rows, "x", h.cols));
   if (h.cells > max_grid_cells || h.vertices > h.cells)
     throw InputError(path, "implausibly large range grid");
+  // Every ascii value takes at least two bytes (a digit and a separator): a header may not claim
+  // more vertices and cells than the file can hold, so allocations stay bounded by the file's size.
+  std::error_code size_error;
+  const std::uint64_t file_bytes = std::filesystem::file_size(path, size_error);
+  if (size_error || h.cells * 2 + h.vertices * 2 * std::uint64_t(h.vertex_properties) > file_bytes)
+    throw InputError(path, str("the header claims ", h.vertices, " vertices and ", h.cells,
+                               " grid cells, more than the file's ", file_bytes, " bytes can hold"));
 
   Mesh mesh;
   mesh.positions.reserve(h.vertices);
@@ -160,11 +168,14 @@ RangeGridHeader read_header(const std::filesystem::path& path) {
 ScanFileInfo inspect_scan(const std::filesystem::path& path) {
   if (is_obj(path)) return {};
   const RangeGridHeader h = read_header(path);
-  if (h.has_faces || h.has_grid) return {};
   const auto& names = h.vertex_names;
   auto has = [&](const char* name) { return std::find(names.begin(), names.end(), name) != names.end(); };
-  return {ScanKind::points, has(sensor_origin_properties[0]) && has(sensor_origin_properties[1]) &&
-                                has(sensor_origin_properties[2])};
+  const bool has_color = has("red") && has("green") && has("blue");
+  if (h.has_faces || h.has_grid) return {.kind = ScanKind::mesh, .has_color = h.has_faces && has_color};
+  return {ScanKind::points,
+          has(sensor_origin_properties[0]) && has(sensor_origin_properties[1]) &&
+              has(sensor_origin_properties[2]),
+          has_color};
 }
 
 Mesh read_scan_mesh(const std::filesystem::path& path, double max_edge_factor) {

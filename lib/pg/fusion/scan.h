@@ -19,6 +19,7 @@ enum class ScanKind { mesh, points };
 struct ScanFileInfo {
   ScanKind kind = ScanKind::mesh;
   bool per_point_origins = false;
+  bool has_color = false;  // vertex red, green and blue (PLY meshes and points)
 };
 // Reads only the header. Throws InputError(path) for a file that is not a PLY (or OBJ).
 ScanFileInfo inspect_scan(const std::filesystem::path& path);

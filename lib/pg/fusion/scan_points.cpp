@@ -52,6 +52,11 @@ ScanPoints read_scan_points(const std::filesystem::path& path) {
     scan.confidence.resize(n);
     for (std::size_t i = 0; i < n; ++i) scan.confidence[i] = float(confidence->values[i]);
   }
+  if (const auto rgb = find_triple(contents, "red", "green", "blue")) {
+    scan.colors.resize(n);
+    for (std::size_t i = 0; i < n; ++i)
+      for (int k = 0; k < 3; ++k) scan.colors[i][k] = ply::color_channel(*(*rgb)[k], (*rgb)[k]->values[i]);
+  }
   return scan;
 }
 

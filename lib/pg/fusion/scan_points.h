@@ -2,6 +2,8 @@
 // Range scans stored as bare points (a LIDAR sweep: PLY vertices without faces), each integrated
 // along its own sensor ray (formats/rgbd-inputs.md, "Point-cloud scans").
 #include <Eigen/Core>
+#include <array>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -17,9 +19,10 @@ namespace pg::fusion {
 struct ScanPoints {
   std::string name;
   std::vector<Eigen::Vector3d> positions;
-  std::vector<Eigen::Vector3d> origins;  // empty or positions.size()
-  std::vector<Eigen::Vector3f> normals;  // empty or positions.size(): unit, either sign
-  std::vector<float> confidence;         // empty or positions.size()
+  std::vector<Eigen::Vector3d> origins;             // empty or positions.size()
+  std::vector<Eigen::Vector3f> normals;             // empty or positions.size(): unit, either sign
+  std::vector<float> confidence;                    // empty or positions.size()
+  std::vector<std::array<std::uint8_t, 3>> colors;  // empty or positions.size(): RGB
   std::optional<Eigen::Vector3d> sensor_origin;
   std::optional<Eigen::Vector3d> sensor_direction;  // unit, the direction the rays travel
   double multiplier = 1.0;                          // per-input weight factor
@@ -34,7 +37,8 @@ inline constexpr const char* sensor_origin_properties[3] = {"sensor_x", "sensor_
 
 // Reads the vertices of any PLY (ascii or binary, with or without a pg header) as scan points in the
 // scan's own frame: x, y, z (any scalar type), and when present the per-point sensor origin
-// sensor_x, sensor_y, sensor_z, the normal nx, ny, nz and "confidence". Faces and other elements are
+// sensor_x, sensor_y, sensor_z, the normal nx, ny, nz, "confidence" and the colour red, green, blue
+// (any type, ply::color_channel). Faces and other elements are
 // ignored. Throws InputError(path) for a malformed file, missing x/y/z or no points.
 ScanPoints read_scan_points(const std::filesystem::path& path);
 

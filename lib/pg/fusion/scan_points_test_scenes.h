@@ -2,6 +2,7 @@
 // Synthetic scans for the point-cloud scan tests: LIDAR sweeps ray-cast through a BVH from a sensor
 // origin (or along parallel rays), written as plain PLY point clouds (no pg header), the way a
 // scanner's export looks.
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -19,6 +20,7 @@ namespace pg::fusion::testing {
 struct SweepPoint {
   Eigen::Vector3d position, origin;
   Eigen::Vector3f normal;  // the hit triangle's unit normal
+  std::array<std::uint8_t, 3> color{};
 };
 
 inline Eigen::Vector3f face_normal(const Mesh& mesh, std::uint32_t face) {
@@ -82,12 +84,12 @@ inline Mesh bump(double half, int n, double height, double sigma) {
 }
 
 struct PlainPlyColumns {
-  bool origins = false, normals = false;
+  bool origins = false, normals = false, colors = false;
   float confidence = -1;  // written as a "confidence" column when >= 0
 };
 
 // A binary little-endian PLY with only a vertex element: double x y z, then as asked float
-// sensor_x sensor_y sensor_z, nx ny nz, confidence. No pg comments.
+// sensor_x sensor_y sensor_z, nx ny nz, confidence, uchar red green blue. No pg comments.
 inline void write_plain_points(const std::filesystem::path& path, const std::vector<SweepPoint>& points,
                                const PlainPlyColumns& columns = {}) {
   std::ofstream out(path, std::ios::binary);
@@ -96,6 +98,7 @@ inline void write_plain_points(const std::filesystem::path& path, const std::vec
   if (columns.origins) out << "property float sensor_x\nproperty float sensor_y\nproperty float sensor_z\n";
   if (columns.normals) out << "property float nx\nproperty float ny\nproperty float nz\n";
   if (columns.confidence >= 0) out << "property float confidence\n";
+  if (columns.colors) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   out << "end_header\n";
   auto put = [&out](auto value) { out.write(reinterpret_cast<const char*>(&value), sizeof(value)); };
   for (const SweepPoint& p : points) {
@@ -105,6 +108,8 @@ inline void write_plain_points(const std::filesystem::path& path, const std::vec
     if (columns.normals)
       for (int a = 0; a < 3; ++a) put(p.normal[a]);
     if (columns.confidence >= 0) put(columns.confidence);
+    if (columns.colors)
+      for (int a = 0; a < 3; ++a) put(p.color[a]);
   }
 }
 

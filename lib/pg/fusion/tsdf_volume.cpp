@@ -104,6 +104,10 @@ openvdb::Vec3s linear_color(const cv::Vec3b& bgr) {
   return openvdb::Vec3s(bgr[2] / 255.0f, bgr[1] / 255.0f, bgr[0] / 255.0f);
 }
 
+openvdb::Vec3s linear_color(const std::array<std::uint8_t, 3>& rgb) {
+  return openvdb::Vec3s(rgb[0] / 255.0f, rgb[1] / 255.0f, rgb[2] / 255.0f);
+}
+
 }  // namespace
 
 void initialize_openvdb() {
@@ -322,7 +326,8 @@ bool point_ray(const ScanPoints& scan, std::size_t i, PointRay& ray) {
 void check_scan_points(const ScanPoints& scan) {
   const std::size_t n = scan.positions.size();
   auto sized = [n](std::size_t size) { return size == 0 || size == n; };
-  if (!sized(scan.origins.size()) || !sized(scan.normals.size()) || !sized(scan.confidence.size()))
+  if (!sized(scan.origins.size()) || !sized(scan.normals.size()) || !sized(scan.confidence.size()) ||
+      !sized(scan.colors.size()))
     throw Error(ExitCode::internal, str(scan.name, ": scan point attributes differ in size"));
   const int sensors = int(!scan.origins.empty()) + int(scan.sensor_origin.has_value()) +
                       int(scan.sensor_direction.has_value());
@@ -435,6 +440,7 @@ void TsdfVolume::integrate(const ScanSurface& scan) {
     const Eigen::Vector3d c = mesh.positions[mesh.faces[f][2]].cast<double>();
     face_normals[f] = (b - a).cross(c - a).normalized();
   }
+  const bool with_color = g.color && mesh.colors.size() == mesh.positions.size();
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, origins.size()), [&](const tbb::blocked_range<std::size_t>& r) {
         for (std::size_t i = r.begin(); i < r.end(); ++i) {
@@ -450,7 +456,15 @@ void TsdfVolume::integrate(const ScanSurface& scan) {
             if (!hit.hit) continue;
             const double cos_angle = std::abs(face_normals[hit.face].dot(direction));
             if (!(cos_angle >= scan.min_cos)) continue;
-            accumulate(leaves, n, float(hit.t - truncation), float(cos_angle * scan.multiplier));
+            const float w = float(cos_angle * scan.multiplier);
+            accumulate(leaves, n, float(hit.t - truncation), w);
+            if (with_color) {
+              const auto& face = mesh.faces[hit.face];
+              const openvdb::Vec3s color = linear_color(mesh.colors[face[0]]) * (1 - hit.b1 - hit.b2) +
+                                           linear_color(mesh.colors[face[1]]) * hit.b1 +
+                                           linear_color(mesh.colors[face[2]]) * hit.b2;
+              accumulate_color(leaves, n, color, w);
+            }
           }
         }
       });
@@ -487,6 +501,7 @@ void TsdfVolume::integrate(const ScanPoints& scan) {
   // One thread, points in input order: the running means come out the same bits at any thread count.
   const double voxel = voxel_size();
   openvdb::FloatGrid::Accessor surface = g.surface->getAccessor(), weight = g.weight->getAccessor();
+  const bool with_color = g.color && !scan.colors.empty();
   for (std::size_t i = 0; i < count; ++i) {
     if (!used[i]) continue;
     const PointRay& ray = rays[i];
@@ -500,6 +515,10 @@ void TsdfVolume::integrate(const ScanPoints& scan) {
       if (origin != leaf_origin) {
         leaves.surface = surface.probeLeaf(c);
         leaves.weight = weight.probeLeaf(c);
+        if (with_color) {
+          leaves.color = g.color->tree().probeLeaf(c);
+          leaves.color_weight = g.color_weight->tree().probeLeaf(c);
+        }
         leaf_origin = origin;
       }
       // Positive in front of the point (towards the sensor), along the ray.
@@ -507,8 +526,9 @@ void TsdfVolume::integrate(const ScanPoints& scan) {
       const double depth_behind = -std::min(0.0, distance * ray.cos_angle);
       if (depth_behind >= truncation) return;
       const float w = float(ray.weight * (1.0 - depth_behind / truncation));
-      accumulate(leaves, int(openvdb::FloatTree::LeafNodeType::coordToOffset(c)),
-                 float(std::clamp(distance, -truncation, truncation)), w);
+      const int n = int(openvdb::FloatTree::LeafNodeType::coordToOffset(c));
+      accumulate(leaves, n, float(std::clamp(distance, -truncation, truncation)), w);
+      if (with_color) accumulate_color(leaves, n, linear_color(scan.colors[i]), w);
     });
   }
   drop_empty_leaves(g, origins);
