@@ -86,6 +86,7 @@ Outcome run_pg(const Dataset& d, bool known) {
   pg::SfmOptions options;
   options.shared_intrinsics = !known;
   options.refine_focal = !known;
+  if (!known) options.principal_point = pg::PrincipalPointMode::when_better;  // pg-track's default
   const pg::SfmResult result = pg::reconstruct(corr.tracks, initial, options);
   return evaluate(pg::registered_cameras(result), d.truth, seconds_since(start));
 }

@@ -47,6 +47,7 @@ class Mapper {
  public:
   Mapper(const TrackSet& tracks, const std::vector<Camera>& initial, const SfmOptions& options)
       : tracks_(tracks), initial_(initial), opt_(options), n_(static_cast<int>(tracks.frames.size())) {
+    principal_point_free_ = options.principal_point == PrincipalPointMode::refine;
     setup_intrinsics();
     setup_observations();
     poses_.assign(n_, PoseParams{});
@@ -68,10 +69,10 @@ class Mapper {
       retriangulate_all();
       global_round(true);
     }
-    BundleOptions final_options = bundle_options(true);
-    final_options.max_iterations = 200;
-    final_options.function_tolerance = 1e-10;
-    global_bundle(final_options);
+    const BundleSummary final_fit = final_bundle();
+    if (opt_.principal_point == PrincipalPointMode::when_better && opt_.refine_focal &&
+        !principal_point_free_)
+      try_principal_point(final_fit.final_rms_px);
     filter_points();
     return result();
   }
@@ -306,7 +307,7 @@ class Mapper {
     BundleOptions b;
     const bool enough = registered_count() >= 3;
     b.refine_focal = global && enough && opt_.refine_focal;
-    b.refine_principal_point = global && enough && opt_.refine_principal_point;
+    b.refine_principal_point = global && enough && principal_point_free_;
     b.refine_distortion = global && enough && opt_.refine_distortion;
     b.huber_px = opt_.huber_px;
     b.max_iterations = global ? 100 : 30;
@@ -355,6 +356,36 @@ class Mapper {
   }
 
   BundleSummary global_bundle(const BundleOptions& options) { return bundle(registered_, options); }
+
+  BundleSummary final_bundle() {
+    BundleOptions options = bundle_options(true);
+    options.max_iterations = 200;
+    options.function_tolerance = 1e-10;
+    return global_bundle(options);
+  }
+
+  // Frees the principal point from the adjusted model; keeps the result (re-triangulated and adjusted
+  // once more) only when the reprojection RMS drops by principal_point_min_gain, else restores it.
+  void try_principal_point(double fixed_rms_px) {
+    const std::vector<PoseParams> poses = poses_;
+    const std::vector<IntrinsicParams> intrinsics = intrinsics_;
+    const std::vector<Point> points = points_;
+    principal_point_free_ = true;
+    const double free_rms_px = final_bundle().final_rms_px;
+    const bool better = free_rms_px <= fixed_rms_px * (1 - opt_.principal_point_min_gain);
+    log::info("sfm: freeing the principal point moves the reprojection RMS from ", fixed_rms_px, " to ",
+              free_rms_px, " px: ", better ? "refined" : "kept at its start");
+    if (!better) {
+      principal_point_free_ = false;
+      poses_ = poses;
+      intrinsics_ = intrinsics;
+      points_ = points;
+      return;
+    }
+    retriangulate_all();
+    global_round(true);
+    final_bundle();
+  }
 
   void global_round(bool refine) {
     for (int pass = 0; pass < 2; ++pass) {
@@ -608,6 +639,7 @@ class Mapper {
       r.points.push_back(out);
     }
     r.rms_px = total ? std::sqrt(total_sq / total) : 0;
+    r.principal_point_refined = principal_point_free_;
     for (int f = 0; f < n_; ++f) {
       Camera c = initial_[f];
       c.id = tracks_.frames[f].id;
@@ -648,6 +680,7 @@ class Mapper {
   std::vector<Point> points_;
   std::vector<Eigen::Vector3d> positions_;  // bundle adjustment scratch
   std::vector<int> track_point_;
+  bool principal_point_free_ = false;
   int gauge_frame_ = -1;
   int initial_pair_[2] = {-1, -1};
   int last_global_size_ = 2;

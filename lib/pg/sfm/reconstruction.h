@@ -13,13 +13,20 @@
 
 namespace pg {
 
+// How the principal point is treated when intrinsics are refined: held (fixed), refined in every
+// global adjustment (refine), or freed in the final adjustment and kept only when it lowers the
+// reprojection RMS by at least principal_point_min_gain (when_better: a principal point that sits
+// at the image centre, as most do, is then not traded against the focal length and the poses).
+enum class PrincipalPointMode { fixed, refine, when_better };
+
 struct SfmOptions {
   // One set of intrinsics for every frame (one physical camera, self-calibration); otherwise each
   // frame keeps its own (e.g. known per-image calibrations).
   bool shared_intrinsics = true;
   bool refine_focal = true;
-  bool refine_principal_point = false;
-  bool refine_distortion = false;  // k1, k2
+  PrincipalPointMode principal_point = PrincipalPointMode::fixed;
+  double principal_point_min_gain = 0.005;  // when_better: relative RMS reduction that frees it
+  bool refine_distortion = false;           // k1, k2
   // Observations beyond this are outliers: about 5 sigma of SIFT localisation (RMS 0.25-0.35 px). A
   // 4 px bound measurably lowered accuracy on templeSparseRing and Herz-Jesus-P8.
   double max_reprojection_px = 1.5;
@@ -50,6 +57,7 @@ struct SfmResult {
   std::vector<std::string> unregistered;  // ids of frames that could not be registered
   int initial_pair[2] = {-1, -1};
   double rms_px = 0;
+  bool principal_point_refined = false;  // the principal point was freed (refine, or when_better won)
 };
 
 // `initial` holds one camera per frame of `tracks` (size, model, intrinsics guess or calibration).
