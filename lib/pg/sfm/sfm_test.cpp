@@ -7,8 +7,8 @@
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/eval/camera_eval.h"
-#include "pg/sfm/bundle_adjustment.h"
 #include "pg/eval/orientation_error.h"
+#include "pg/sfm/bundle_adjustment.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/sfm_outputs.h"
 #include "pg/sfm/truth_import.h"
@@ -25,7 +25,8 @@ struct Scene {
   TrackSet tracks;
 };
 
-Scene orbit_scene(int views, double noise_px, unsigned seed, bool ring_step_deg_large = false) {
+Scene orbit_scene(int views, double noise_px, unsigned seed, bool ring_step_deg_large = false,
+                  Eigen::Vector2d principal_point = {319.5, 239.5}) {
   Scene s;
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1, 1);
@@ -38,7 +39,7 @@ Scene orbit_scene(int views, double noise_px, unsigned seed, bool ring_step_deg_
     c.image = c.id + ".png";
     c.width = 640;
     c.height = 480;
-    c.intrinsics = {600, 600, 319.5, 239.5};
+    c.intrinsics = {600, 600, principal_point.x(), principal_point.y()};
     const double a = step * v;
     c.cam_from_world =
         Rigid3::look_at({6 * std::cos(a), 6 * std::sin(a), 1.5 + 0.3 * std::sin(3 * a)}, {0, 0, 0});
@@ -90,6 +91,42 @@ TEST(Sfm, SelfCalibratesTheFocalLengthOnAFullRing) {
   const SfmResult r = reconstruct(s.tracks, guess, {});
   ASSERT_TRUE(r.unregistered.empty());
   EXPECT_NEAR(r.cameras[0].intrinsics.fx / 600.0, 1.0, 0.005);
+}
+
+TEST(Sfm, FreesAnOffCentrePrincipalPointOnlyWhereItHelps) {
+  SfmOptions options;
+  options.principal_point = PrincipalPointMode::when_better;
+  auto start_at_centre = [](std::vector<Camera> cameras) {
+    for (Camera& c : cameras) {
+      c.intrinsics.fx = c.intrinsics.fy = default_focal_guess(c.width, c.height);
+      c.intrinsics.cx = 319.5;
+      c.intrinsics.cy = 239.5;
+    }
+    return cameras;
+  };
+  // A principal point 16 px right of and 14 px above the centre (as on entry-P10, in proportion).
+  const Scene off = orbit_scene(24, 0.3, 3, true, {335.5, 225.5});
+  const SfmResult freed = reconstruct(off.tracks, start_at_centre(off.cameras), options);
+  ASSERT_TRUE(freed.unregistered.empty());
+  EXPECT_TRUE(freed.principal_point_refined);
+  // An orbit trades the vertical principal point against the cameras' tilt a little: within 3 px of
+  // the truth, from 16 and 14 px off.
+  EXPECT_NEAR(freed.cameras[0].intrinsics.cx, 335.5, 3.0);
+  EXPECT_NEAR(freed.cameras[0].intrinsics.cy, 225.5, 3.0);
+  EXPECT_NEAR(freed.cameras[0].intrinsics.fx / 600.0, 1.0, 0.005);
+  EXPECT_LT(freed.rms_px, 0.42);  // the noise: 0.3 px in x and in y
+  options.principal_point = PrincipalPointMode::fixed;
+  const SfmResult held = reconstruct(off.tracks, start_at_centre(off.cameras), options);
+  EXPECT_FALSE(held.principal_point_refined);
+  EXPECT_EQ(held.cameras[0].intrinsics.cx, 319.5);
+  EXPECT_GT(held.rms_px, freed.rms_px * 1.05);
+  // A centred principal point is not freed: nothing to gain.
+  options.principal_point = PrincipalPointMode::when_better;
+  const Scene centred = orbit_scene(24, 0.3, 3, true);
+  const SfmResult kept = reconstruct(centred.tracks, start_at_centre(centred.cameras), options);
+  EXPECT_FALSE(kept.principal_point_refined);
+  EXPECT_EQ(kept.cameras[0].intrinsics.cx, 319.5);
+  EXPECT_NEAR(kept.cameras[0].intrinsics.fx / 600.0, 1.0, 0.005);
 }
 
 TEST(Sfm, OutlierTracksAreRejected) {
