@@ -205,7 +205,10 @@ void SplitField::merge_into(cv::Mat1f& field) const {
     const float* even = row(0, y);
     const float* odd = row(1, y);
     float* out = field[y];
-    for (int x = 0; x < field.cols; ++x) out[x] = (x & 1 ? odd : even)[x >> 1];
+    // Two strided loops rather than picking a row per pixel: GCC folds that pick into a pointer offset
+    // between the two rows, which UBSan reports as a pointer overflow.
+    for (int k = 0; 2 * k < field.cols; ++k) out[2 * k] = even[k];
+    for (int k = 0; 2 * k + 1 < field.cols; ++k) out[2 * k + 1] = odd[k];
   });
 }
 
