@@ -377,13 +377,11 @@ class Mapper {
     const bool better = free_rms_px <= fixed_rms_px * (1 - opt_.principal_point_min_gain);
     log::info("sfm: freeing the principal point moves the reprojection RMS from ", fixed_rms_px, " to ",
               free_rms_px, " px: ", better ? "refined" : "kept at its start");
-    if (!better) {
-      principal_point_free_ = false;
-      poses_ = poses;
-      intrinsics_ = intrinsics;
-      points_ = points;
-      return;
-    }
+    if (better) return;
+    principal_point_free_ = false;
+    poses_ = poses;
+    intrinsics_ = intrinsics;
+    points_ = points;
   }
 
   void global_round(bool refine) {
