@@ -6,6 +6,7 @@
 // memory is the merge's own. Prints integration ms per frame, extraction seconds, peak memory, the
 // meshes' distance to each other, the fraction of depth pixels within 2 voxels of each mesh, and
 // the accuracy and completeness of both against the bunny reference.
+// Usage: bench_merge [DATA_DIR] [kinect|bunny]   (the second argument runs that set alone)
 #include <fcntl.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -154,15 +155,17 @@ Dataset render_bunny(const fs::path& reference, const fs::path& folder) {
           reference};
 }
 
-double agreement(const Mesh& mesh, const std::vector<DepthFrame>& frames, double tolerance) {
+DepthAgreement agreement(const Mesh& mesh, const std::vector<DepthFrame>& frames, double tolerance) {
   const TriangleBvh bvh(mesh);
-  std::size_t valid = 0, agreeing = 0;
+  DepthAgreement sum;
   for (const auto& f : frames) {
-    const auto a = depth_agreement(bvh, f, tolerance);
-    valid += a.valid_pixels;
-    agreeing += a.agreeing;
+    const DepthAgreement a = depth_agreement(bvh, f, tolerance);
+    sum.valid_pixels += a.valid_pixels;
+    sum.agreeing += a.agreeing;
+    sum.in_front += a.in_front;
+    sum.missed += a.missed;
   }
-  return double(agreeing) / double(std::max<std::size_t>(valid, 1));
+  return sum;
 }
 
 void compare(const Dataset& d, double voxel, const fs::path& work, const std::string& self,
@@ -204,12 +207,15 @@ void compare(const Dataset& d, double voxel, const fs::path& work, const std::st
   const auto frames = load_frames(d);
   std::cout << "\n== " << d.name << ", voxel " << voxel * 1000 << " mm, truncation " << 4 * voxel * 1000
             << " mm\n";
-  auto row = [](const char* name, const nlohmann::json& j, double agree) {
+  // Pixels that disagree are split into those where the mesh is in front and those it misses.
+  auto row = [](const char* name, const nlohmann::json& j, const DepthAgreement& a) {
+    const double percent = 100.0 / double(std::max<std::size_t>(a.valid_pixels, 1));
     std::printf(
         "%-8s integrate %7.1f ms/frame   extract %6.3f s   peak %7.1f MB   %8d faces   %5.1f%% pixels within "
-        "2 voxels\n",
+        "2 voxels (%4.1f%% in front, %4.1f%% missed)\n",
         name, j["integrate_ms_per_frame"].get<double>(), j["extract_seconds"].get<double>(),
-        j["peak_bytes"].get<double>() / 1e6, j["faces"].get<int>(), 100 * agree);
+        j["peak_bytes"].get<double>() / 1e6, j["faces"].get<int>(), percent * double(a.agreeing),
+        percent * double(a.in_front), percent * double(a.missed));
   };
   row("pg", ours, agreement(a, frames, 2 * voxel));
   row("Open3D", theirs, agreement(b, frames, 2 * voxel));
@@ -253,6 +259,7 @@ int main(int argc, char** argv) {
     return run_pg(d, std::stod(argv[6]), argv[7]);
   }
   const fs::path data = argc > 1 ? fs::path(argv[1]) : fs::path(PG_SOURCE_DIR) / "../shared/data";
+  const std::string only = argc > 2 ? argv[2] : "";  // "kinect" or "bunny": that set alone
   const fs::path script = fs::path(PG_SOURCE_DIR) / "bench/bench_merge_open3d.py";
   const fs::path work = fs::temp_directory_path() / ("pg-bench-merge-" + std::to_string(getpid()));
   fs::create_directories(work);
@@ -267,10 +274,13 @@ int main(int argc, char** argv) {
                              0.001,
                              3.0,
                              std::nullopt};
-    for (double voxel : {0.01, 0.004}) compare(kinect_set, voxel, work, self, script);
-    const Dataset bunny =
-        render_bunny(data / "meshes/stanford-bunny/reconstruction/bun_zipper.ply", work / "bunny");
-    for (double voxel : {0.002, 0.001}) compare(bunny, voxel, work, self, script);
+    if (only != "bunny")
+      for (double voxel : {0.01, 0.004}) compare(kinect_set, voxel, work, self, script);
+    if (only != "kinect") {
+      const Dataset bunny =
+          render_bunny(data / "meshes/stanford-bunny/reconstruction/bun_zipper.ply", work / "bunny");
+      for (double voxel : {0.002, 0.001}) compare(bunny, voxel, work, self, script);
+    }
   } catch (const std::exception& e) {
     std::cerr << "bench_merge: " << e.what() << "\n";
     fs::remove_all(work);

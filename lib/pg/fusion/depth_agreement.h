@@ -9,6 +9,8 @@ namespace pg::fusion {
 struct DepthAgreement {
   std::size_t valid_pixels = 0;  // finite depth (masks and weights ignored)
   std::size_t agreeing = 0;      // the first mesh hit along the ray lies within the tolerance
+  std::size_t in_front = 0;      // the first hit is nearer than the depth less the tolerance
+  std::size_t missed = 0;        // no hit before the depth plus the tolerance (a hole, or too far)
   double fraction() const { return valid_pixels ? double(agreeing) / double(valid_pixels) : 0.0; }
 };
 
