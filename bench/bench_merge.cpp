@@ -20,6 +20,7 @@
 #include "pg/eval/mesh_eval.h"
 #include "pg/fusion/depth_agreement.h"
 #include "pg/fusion/tsdf_volume.h"
+#include "pg/gpu/device.h"
 #include "pg/image/image_io.h"
 #include "pg/mesh/mesh_io.h"
 
@@ -75,6 +76,9 @@ std::vector<DepthFrame> load_frames(const Dataset& d) {
 
 // The child: one pg merge, timed like the Open3D script (frames loaded before the clock starts).
 int run_pg(const Dataset& d, double voxel, const fs::path& out) {
+  // CPU against CPU: "auto" would first load the OpenCL driver to look for a GPU (PoCL here: its
+  // start-up in the first frame's time, its memory pools in the peak).
+  pg::gpu::set_requested_device(pg::gpu::DeviceKind::cpu);
   const auto frames = load_frames(d);
   TsdfVolume volume({.voxel_size = voxel, .truncation = 4 * voxel, .color = !d.color_pattern.empty()});
   auto start = std::chrono::steady_clock::now();

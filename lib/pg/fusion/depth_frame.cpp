@@ -125,7 +125,7 @@ DepthFrame make_depth_frame(const DepthMap& map, const std::filesystem::path& so
       else
         n = normal_from_neighbours(points, x, y, options.normal_reach);
       const double cos_angle = n.squaredNorm() > 0 ? std::abs(n.dot(point)) / (n.norm() * range) : 1.0;
-      frame.cos_angle(y, x) = float(std::max(cos_angle, options.min_cos));
+      frame.cos_angle(y, x) = float(std::max(cos_angle, min_band_cos));
       if (options.use_angle) {
         if (cos_angle < options.min_cos) continue;
         w *= cos_angle;

@@ -20,11 +20,19 @@ struct DepthFrame {
   cv::Mat1f depth;   // NaN = no measurement
   cv::Mat1f weight;  // per pixel, >= 0; 0 = not integrated
   cv::Mat3b color;   // empty, or BGR of the same size
-  // Empty, or per pixel the cos of the angle between the surface normal and the ray (>= min_cos).
-  // Distances along the ray are multiplied by it: the distance to the surface's tangent plane, which
-  // keeps the band as thick as the truncation on surfaces seen at grazing angles.
+  // Empty, or per pixel the cos of the angle between the surface normal and the ray, at least
+  // min_band_cos. Behind the surface, distances along the ray are multiplied by it: the distance to
+  // the surface's tangent plane, which keeps the band thick on surfaces seen at grazing angles.
   cv::Mat1f cos_angle;
 };
+
+// The floor of DepthFrame::cos_angle (and of point scans' cos): behind the surface the band reaches
+// at most twice the truncation along the ray. Deeper, a ray that passes a silhouette carries the
+// negative distance of a nearer surface into thin parts behind it (on exact depth of the Stanford
+// bunny at 2 mm voxels the 90th-percentile error falls from 0.61 mm with a floor of 0.1 to 0.40 mm),
+// while a band only as deep as the truncation leaves holes in noisy grazing surfaces (real Kinect
+// frames agree less with the mesh).
+inline constexpr double min_band_cos = 0.5;
 
 // How much each depth sample counts (Curless & Levoy 1996 weight the samples they trust more).
 // The weight of a pixel is the product of the enabled factors:

@@ -317,7 +317,7 @@ bool point_ray(const ScanPoints& scan, std::size_t i, PointRay& ray) {
     if (std::isfinite(cos_angle)) {
       if (scan.use_angle && cos_angle < scan.min_cos) return false;
       if (scan.use_angle) ray.weight *= cos_angle;
-      ray.cos_angle = std::max(cos_angle, scan.min_cos);
+      ray.cos_angle = std::max(cos_angle, min_band_cos);
     }
   }
   return true;
