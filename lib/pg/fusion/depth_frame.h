@@ -27,11 +27,11 @@ struct DepthFrame {
 };
 
 // The floor of DepthFrame::cos_angle (and of point scans' cos): behind the surface the band reaches
-// at most twice the truncation along the ray. Deeper, a ray that passes a silhouette carries the
-// negative distance of a nearer surface into thin parts behind it (on exact depth of the Stanford
-// bunny at 2 mm voxels the 90th-percentile error falls from 0.61 mm with a floor of 0.1 to 0.40 mm),
-// while a band only as deep as the truncation leaves holes in noisy grazing surfaces (real Kinect
-// frames agree less with the mesh).
+// at most twice the truncation along the ray. Deeper, the band behind a surface seen at a grazing
+// angle reaches through thin parts into the free space beyond and thickens them (exact depth of the
+// Stanford bunny at 2 mm voxels: 90th-percentile error 0.61 mm with a floor of 0.1, 0.40 mm with
+// 0.5); a band only as deep as the truncation along the ray leaves holes in noisy grazing surfaces
+// (real Kinect frames at 10 mm voxels: 66% of the pixels agree with the mesh, against 72% with 0.5).
 inline constexpr double min_band_cos = 0.5;
 
 // How much each depth sample counts (Curless & Levoy 1996 weight the samples they trust more).

@@ -97,6 +97,25 @@ TEST(Tsdf, SphereIsWoundOutwardsAndLiesOnTheTrueRadius) {
   EXPECT_FALSE(volume.distance_at({0, 0, 0}).has_value());  // the inside was never observed
 }
 
+// Views that see a thin plate nearly edge-on meet its faces at grazing angles. A band behind the
+// surface as deep as the truncation measured across it (truncation / cos along the ray) reaches
+// through the plate into the free space beyond and thickens it; min_band_cos caps it at twice the
+// truncation along the ray (p90 0.019 here; 0.023 with a cap of 10x, 0.009 with no cap at all).
+TEST(Tsdf, ThinPartsSeenAtGrazingAnglesKeepTheirThickness) {
+  const double voxel = 0.02;
+  const Mesh truth = testing::box({-0.5f, -0.02f, 0.0f}, {0.5f, 0.02f, 0.6f}, 16);  // a plate 2 voxels thick
+  const auto frames = frames_of(truth, orbit(12, 2.5, 1.0, {0, 0, 0.3}, 160, 120, 150));
+  TsdfVolume volume({.voxel_size = voxel});
+  for (const auto& frame : frames) volume.integrate(frame);
+  const Mesh merged = volume.extract_mesh();
+  const MeshEvalResult eval = evaluate_mesh(merged, observed_part(truth, frames, voxel / 2),
+                                            {.samples = 30000, .thresholds = {voxel}});
+  std::cout << "thin plate, voxel " << voxel << ": accuracy p90 " << eval.accuracy.p90 << ", p99 "
+            << eval.accuracy.p99 << ", completeness within v " << eval.recall[0] << "\n";
+  EXPECT_LT(eval.accuracy.p90, voxel);
+  EXPECT_GT(eval.recall[0], 0.9);
+}
+
 TEST(Tsdf, PartialVolumesCombineToTheSingleRun) {
   const double voxel = 0.04;
   const auto frames = frames_of(set_scene(), orbit(6, 3.0, 1.8, {0, 0, 0.2}, 96, 72, 85));
