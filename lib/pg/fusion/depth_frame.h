@@ -48,7 +48,7 @@ inline constexpr double min_band_cos = 0.5;
 struct WeightOptions {
   double centre_falloff = 0.5;  // in [0, 1]
   bool use_angle = true;
-  double min_cos = 0.1;
+  double min_cos = 0;
   int normal_reach = 2;
   bool use_confidence = true;
   bool use_quality = true;

@@ -32,7 +32,7 @@ struct ScanSurface {
   std::optional<Eigen::Vector3d> sensor_origin;
   std::optional<Eigen::Vector3d> sensor_direction;  // unit, the direction the rays travel
   double multiplier = 1.0;                          // per-input weight factor
-  double min_cos = 0.1;  // samples whose triangle is more grazing than this to the ray are dropped
+  double min_cos = 0;  // samples whose triangle is more grazing than this to the ray are dropped
 };
 
 // Reads a scan as a triangle mesh in its own frame: a PLY or OBJ mesh with faces, or a Stanford range

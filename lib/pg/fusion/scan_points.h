@@ -27,7 +27,7 @@ struct ScanPoints {
   std::optional<Eigen::Vector3d> sensor_direction;  // unit, the direction the rays travel
   double multiplier = 1.0;                          // per-input weight factor
   bool use_angle = true;                            // weigh by |cos(normal, ray)| where normals were read
-  double min_cos = 0.1;        // with use_angle and normals: drop points more grazing than this
+  double min_cos = 0;          // with use_angle and normals: drop points more grazing than this
   bool use_confidence = true;  // weigh by the confidence property where it was read
   double max_range = 0;        // drop points farther than this from their origin; 0 = no limit
 };

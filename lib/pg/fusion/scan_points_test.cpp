@@ -231,17 +231,18 @@ TEST(ScanPoints, WeightsFollowTheDocumentedFactors) {
   // along the ray on the x axis, 2 voxels behind it about half.
   EXPECT_LT(plain.weight_at({2.0 + 3.9 * voxel, -0.5, 1.25}), 0.1f * plain.weight_at({1.9, -0.5, 1.25}));
 
-  // Normals: weights by |cos(normal, ray)|; points more grazing than min_cos are dropped.
+  // Normals: weights by |cos(normal, ray)|; points more grazing than min_cos (0 by default) are dropped.
   auto grazing = sweep;
   for (auto& p : grazing)
     p.normal = (p.position - p.origin).cross(Eigen::Vector3d::UnitZ()).normalized().cast<float>();
   testing::write_plain_points(dir / "grazing.ply", grazing, {.normals = true});
   TsdfVolume dropped({.voxel_size = voxel}), kept({.voxel_size = voxel});
   ScanPoints with_normals = read_placed(dir / "grazing.ply", first_origin);
+  with_normals.min_cos = 0.1;
   dropped.integrate(with_normals);
   EXPECT_LT(dropped.active_voxel_count(), plain.active_voxel_count() / 20);
   // Without the angle weight nothing is dropped; the band behind a grazing point reaches deeper
-  // along the ray (its depth behind is measured across the surface, cos clamped at min_cos).
+  // along the ray (its depth behind is measured across the surface, cos clamped at min_band_cos).
   with_normals.use_angle = false;
   kept.integrate(with_normals);
   EXPECT_GT(kept.active_voxel_count(), plain.active_voxel_count());
