@@ -7,8 +7,8 @@
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/fusion/mesh_cleanup.h"
-#include "pg/mesh/manifold.h"
 #include "pg/fusion/tsdf_grids.h"
+#include "pg/mesh/manifold.h"
 
 namespace pg::fusion {
 namespace {
@@ -29,6 +29,44 @@ bool has_grid(openvdb::io::File& file, const std::string& name) {
   return false;
 }
 
+// Whether every zero crossing on the edges of the cell with lower corner floor(p) lies between two
+// observed voxels (and there is one). An unobserved voxel holds the background (+truncation), so a
+// crossing towards it is not a measured surface; the cell's other corners may be unobserved.
+bool crossings_observed(const openvdb::FloatGrid::ConstAccessor& surface,
+                        const openvdb::FloatGrid::ConstAccessor& weights, const openvdb::Vec3d& p) {
+  const openvdb::Coord base(int(std::floor(p.x())), int(std::floor(p.y())), int(std::floor(p.z())));
+  auto corner = [&](int i) { return base.offsetBy(i & 1, (i >> 1) & 1, (i >> 2) & 1); };
+  bool any = false;
+  for (int a = 0; a < 8; ++a)
+    for (int axis_bit = 1; axis_bit < 8; axis_bit <<= 1) {
+      if (a & axis_bit) continue;
+      const openvdb::Coord from = corner(a), to = corner(a | axis_bit);
+      if ((surface.getValue(from) < 0) == (surface.getValue(to) < 0)) continue;
+      if (!weights.isValueOn(from) || !weights.isValueOn(to)) return false;
+      any = true;
+    }
+  return any;
+}
+
+// Trilinear interpolation at p over the corners of its cell that `observed` holds, renormalised: the
+// background of unobserved corners (weight 0, colour black) would pull values at the band's edge down.
+template <typename Value, typename Accessor>
+Value observed_sample(const Accessor& values, const openvdb::FloatGrid::ConstAccessor& observed,
+                      const openvdb::Vec3d& p) {
+  const openvdb::Coord base(int(std::floor(p.x())), int(std::floor(p.y())), int(std::floor(p.z())));
+  const openvdb::Vec3d f = p - base.asVec3d();
+  Value sum = openvdb::zeroVal<Value>();
+  double total = 0;
+  for (int i = 0; i < 8; ++i) {
+    const openvdb::Coord c = base.offsetBy(i & 1, (i >> 1) & 1, (i >> 2) & 1);
+    if (!observed.isValueOn(c)) continue;
+    const double w = (i & 1 ? f.x() : 1 - f.x()) * (i & 2 ? f.y() : 1 - f.y()) * (i & 4 ? f.z() : 1 - f.z());
+    sum += values.getValue(c) * float(w);
+    total += w;
+  }
+  return total > 0 ? Value(sum * float(1 / total)) : sum;
+}
+
 }  // namespace
 
 Mesh TsdfVolume::extract_mesh(const ExtractOptions& options) const {
@@ -39,8 +77,11 @@ Mesh TsdfVolume::extract_mesh(const ExtractOptions& options) const {
   openvdb::tools::volumeToMesh(*g.surface, points, triangles, quads, 0.0, 0.0);
   const auto faces = triangles_from(points, triangles, quads);
 
-  // A vertex is kept when every corner of the cell holding it was observed and its weight is enough:
-  // elsewhere the zero crossing is between a measured distance and the unobserved background.
+  // A vertex is kept when its cell's zero crossings are all between observed voxels and its weight is
+  // enough: elsewhere the crossing is between a measured distance and the unobserved background.
+  // (Asking all eight corners to be observed, as marching cubes over weighted voxels does, also drops
+  // cells at the edge of the observed band: Kinect frames at 10 mm agreed on 75.1% of their pixels
+  // against 75.7%, the bunny's completeness p90 at 2 mm was 1.70 mm against 1.63.)
   const double inverse_voxel = 1.0 / voxel_size();
   std::vector<char> keep(points.size(), 0);
   std::vector<float> confidence(points.size(), 0.0f);
@@ -48,16 +89,21 @@ Mesh TsdfVolume::extract_mesh(const ExtractOptions& options) const {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size()),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       auto weights = g.weight->getConstAccessor();
+                      auto surface = g.surface->getConstAccessor();
                       std::optional<openvdb::Vec3SGrid::ConstAccessor> color_accessor;
-                      if (g.color) color_accessor.emplace(g.color->getConstAccessor());
+                      std::optional<openvdb::FloatGrid::ConstAccessor> color_weights;
+                      if (g.color) {
+                        color_accessor.emplace(g.color->getConstAccessor());
+                        color_weights.emplace(g.color_weight->getConstAccessor());
+                      }
                       for (std::size_t i = r.begin(); i < r.end(); ++i) {
                         const openvdb::Vec3d index = openvdb::Vec3d(points[i]) * inverse_voxel;
-                        if (!cell_is_active(weights, index)) continue;
-                        confidence[i] = openvdb::tools::BoxSampler::sample(weights, index);
+                        if (!crossings_observed(surface, weights, index)) continue;
+                        confidence[i] = observed_sample<float>(weights, weights, index);
                         if (confidence[i] < options.min_weight) continue;
                         keep[i] = 1;
                         if (color_accessor)
-                          colors[i] = openvdb::tools::BoxSampler::sample(*color_accessor, index);
+                          colors[i] = observed_sample<openvdb::Vec3s>(*color_accessor, *color_weights, index);
                       }
                     });
 
