@@ -8,7 +8,9 @@ args=(-DCMAKE_BUILD_TYPE=Release)
 if [ "${1:-}" = "--sanitize" ]; then
   shift
   build_dir=build-sanitize
-  args=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DPG_SANITIZE=ON -DPG_BUILD_BENCH=OFF)
+  # -O1 -g1: a third of the compile time of -O2 -g under ASan+UBSan, still with file:line stacks.
+  args=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG"
+    "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DPG_SANITIZE=ON -DPG_BUILD_BENCH=OFF)
 fi
 generator=()
 if command -v ninja >/dev/null; then generator=(-G Ninja); fi
