@@ -55,8 +55,9 @@ class TsdfVolume {
   // both, as if all their inputs had been integrated into one volume.
   void merge_partial(const TsdfVolume& partial);
 
-  // The zero level set as triangles, only where all eight voxels of a cell were observed. Adds the
-  // vertex property "confidence" (accumulated weight, trilinear) and colours when the volume has them.
+  // The zero level set as triangles, only in cells whose zero crossings all lie between observed
+  // voxels. Adds the vertex property "confidence" (accumulated weight, trilinear over the observed
+  // voxels of the cell) and colours when the volume has them.
   Mesh extract_mesh(const ExtractOptions& options = {}) const;
 
   // Grids "surface" (level set, scene units), "weight", and with colour "Cd" (linear [0, 1] RGB of
