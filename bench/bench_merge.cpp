@@ -162,13 +162,7 @@ Dataset render_bunny(const fs::path& reference, const fs::path& folder) {
 DepthAgreement agreement(const Mesh& mesh, const std::vector<DepthFrame>& frames, double tolerance) {
   const TriangleBvh bvh(mesh);
   DepthAgreement sum;
-  for (const auto& f : frames) {
-    const DepthAgreement a = depth_agreement(bvh, f, tolerance);
-    sum.valid_pixels += a.valid_pixels;
-    sum.agreeing += a.agreeing;
-    sum.in_front += a.in_front;
-    sum.missed += a.missed;
-  }
+  for (const auto& f : frames) sum += depth_agreement(bvh, f, tolerance);
   return sum;
 }
 

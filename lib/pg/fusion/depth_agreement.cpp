@@ -31,13 +31,7 @@ DepthAgreement depth_agreement(const TriangleBvh& mesh, const DepthFrame& frame,
           }
         return c;
       },
-      [](DepthAgreement a, const DepthAgreement& b) {
-        a.valid_pixels += b.valid_pixels;
-        a.agreeing += b.agreeing;
-        a.in_front += b.in_front;
-        a.missed += b.missed;
-        return a;
-      });
+      [](DepthAgreement a, const DepthAgreement& b) { return a += b; });
 }
 
 }  // namespace pg::fusion

@@ -12,6 +12,13 @@ struct DepthAgreement {
   std::size_t in_front = 0;      // the first hit is nearer than the depth less the tolerance
   std::size_t missed = 0;        // no hit before the depth plus the tolerance (a hole, or too far)
   double fraction() const { return valid_pixels ? double(agreeing) / double(valid_pixels) : 0.0; }
+  DepthAgreement& operator+=(const DepthAgreement& other) {
+    valid_pixels += other.valid_pixels;
+    agreeing += other.agreeing;
+    in_front += other.in_front;
+    missed += other.missed;
+    return *this;
+  }
 };
 
 DepthAgreement depth_agreement(const TriangleBvh& mesh, const DepthFrame& frame, double tolerance);
