@@ -1,13 +1,15 @@
 // bench_remesh: pg::remesh against CGAL::Polygon_mesh_processing::isotropic_remeshing on the
 // Stanford bunny, at the same target length L (the mean input edge length unless --scale says
 // otherwise), iterations and feature angle; prints time, ratio, and quality (edges within
-// [0.8, 1.33] L, triangles with minimum angle above 30 degrees, valence 6, Hausdorff distance / L).
+// [0.8, 1.33] L, triangles with minimum angle above 30 degrees, valence 6, Hausdorff distance / L, over
+// the whole bunny and over its smooth region, pg::smooth_vertices with radius factor 3).
 //   bench_remesh [--data DIR] [--iterations N] [--scale S] [--threads T]
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/detect_features.h>
 #include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/Surface_mesh.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -66,9 +68,11 @@ void print_row(const Row& row, const pg::Mesh& input, float length) {
   const pg::MeshQuality q =
       pg::measure_quality(row.mesh, {}, std::vector<float>(row.mesh.vertex_count(), length));
   const pg::HausdorffDistance h = pg::hausdorff_distance(row.mesh, {}, input, {}, 0.25f * length);
-  std::printf("%-26s %8.3f s %8zu faces %8.4f %8.4f %8.4f %8.1f %8.4f\n", row.name.c_str(), row.seconds,
+  const pg::SmoothRegionHausdorff s =
+      pg::smooth_region_hausdorff(row.mesh, input, {}, length, 3, 0.25f * length);
+  std::printf("%-26s %8.3f s %8zu faces %8.4f %8.4f %8.4f %8.1f %8.4f %8.4f\n", row.name.c_str(), row.seconds,
               row.mesh.face_count(), q.edges_in_range, q.angles_above_30, q.valence_6, q.smallest_angle_deg,
-              h.distance / length);
+              h.distance / length, s.hausdorff.distance / length);
 }
 
 }  // namespace
@@ -113,8 +117,15 @@ int main(int argc, char** argv) {
       "Stanford bunny: %zu vertices, %zu faces; L = %.6g (%.2f x mean edge), %d iterations, features above "
       "%.0f degrees, %d threads for pg\n",
       input.vertex_count(), input.face_count(), length, scale, iterations, feature_angle, pg::thread_count());
-  std::printf("%-26s %10s %14s %8s %8s %8s %8s %8s\n", "", "time", "", "edges", "angle>30", "val6", "min ang",
-              "H / L");
+  const std::vector<bool> smooth = pg::faces_within(input, pg::smooth_vertices(input, length, 3));
+  const double smooth_fraction =
+      double(std::count(smooth.begin(), smooth.end(), true)) / double(smooth.size());
+  std::printf(
+      "smooth region (curvature radius of at least 3 L within L of every vertex, off the boundary): %.1f%% "
+      "of the faces\n",
+      100 * smooth_fraction);
+  std::printf("%-26s %10s %14s %8s %8s %8s %8s %8s %8s\n", "", "time", "", "edges", "angle>30", "val6",
+              "min ang", "H / L", "smooth");
 
   auto start = std::chrono::steady_clock::now();
   pg::RemeshResult ours = pg::remesh(input, options);

@@ -82,12 +82,17 @@ TEST(PgRemesh, RemeshesTheDeformedRegionKeepingPinsAndMasks) {
   EXPECT_EQ(q["counts"]["output_faces"], out.face_count());
   EXPECT_GT(double(q["quality"]["after"]["min_angle_above_30"]), 0.9);
   EXPECT_LT(double(q["hausdorff"]["relative_to_target"]), 0.25);
+  // The plane around the bump is smooth; the smooth part's distance is at most the whole one's.
+  EXPECT_EQ(q["hausdorff_smooth"]["radius_factor"], 3);
+  EXPECT_GT(double(q["hausdorff_smooth"]["input_fraction"]), 0.2);
+  EXPECT_LE(double(q["hausdorff_smooth"]["distance"]), double(q["hausdorff"]["distance"]));
   EXPECT_EQ(q["masks_written"].size(), 2u);
   const cv::Mat png = cv::imread(s.path("quality.png"));
   EXPECT_EQ(png.cols, 1260);
   EXPECT_EQ(png.rows, 300);
   const nlohmann::json run = read_json(s.dir / "run.json");
   EXPECT_EQ(run["metrics"]["output_faces"], out.face_count());
+  EXPECT_EQ(run["metrics"]["smooth_fraction"], q["hausdorff_smooth"]["input_fraction"]);
 }
 
 TEST(PgRemesh, SameOutputForAnyThreadCount) {

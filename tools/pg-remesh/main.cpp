@@ -183,13 +183,18 @@ int main(int argc, char** argv) {
     report.set_metric("valence_6", evaluation.after.valence_6);
     report.set_metric("hausdorff", evaluation.hausdorff.distance);
     report.set_metric("hausdorff_relative_to_target", evaluation.hausdorff.distance / result.target_length);
+    report.set_metric("hausdorff_smooth_relative_to_target",
+                      evaluation.smooth_hausdorff.hausdorff.distance / result.target_length);
+    report.set_metric("smooth_fraction", evaluation.smooth_hausdorff.input_fraction);
     std::cout << pg::str("remeshed ", s.region_vertices, " region vertices at L = ", result.target_length,
                          ": ", result.mesh.vertex_count(), " vertices, ", result.mesh.face_count(),
                          " faces; edges within [0.8, 1.33] L ", evaluation.before.edges_in_range, " -> ",
                          evaluation.after.edges_in_range, ", min angle above 30 degrees ",
                          evaluation.before.angles_above_30, " -> ", evaluation.after.angles_above_30,
                          ", Hausdorff ", evaluation.hausdorff.distance, " (",
-                         evaluation.hausdorff.distance / result.target_length, " L)")
+                         evaluation.hausdorff.distance / result.target_length, " L; ",
+                         evaluation.smooth_hausdorff.hausdorff.distance / result.target_length,
+                         " L where smooth)")
               << "\n";
   });
 }

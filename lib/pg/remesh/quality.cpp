@@ -7,6 +7,8 @@
 
 #include "pg/core/parallel.h"
 #include "pg/mesh/bvh.h"
+#include "pg/remesh/remesh.h"
+#include "pg/remesh/sizing.h"
 
 namespace pg {
 namespace {
@@ -172,6 +174,56 @@ HausdorffDistance hausdorff_distance(const Mesh& a, const std::vector<bool>& a_f
   h.distance = std::max(h.a_to_b, h.b_to_a);
   h.samples = a_points.size() + b_points.size();
   return h;
+}
+
+std::vector<bool> smooth_vertices(const Mesh& mesh, float length, float radius_factor) {
+  // The largest curvature within about `length` of each vertex: a triangle of side L there spans it.
+  std::vector<float> curvature = max_abs_curvature(mesh, 0);
+  const float edge = mean_edge_length(mesh);
+  const int rings = edge > 0 ? std::max(1, int(std::ceil(length / edge))) : 1;
+  for (int ring = 0; ring < rings; ++ring) {
+    std::vector<float> grown = curvature;
+    for (const auto& f : mesh.faces)
+      for (int k = 0; k < 3; ++k)
+        grown[f[k]] = std::max({grown[f[k]], curvature[f[(k + 1) % 3]], curvature[f[(k + 2) % 3]]});
+    curvature = std::move(grown);
+  }
+  const std::vector<bool> boundary = boundary_vertices(mesh);
+  std::vector<bool> smooth(curvature.size());
+  for (std::size_t v = 0; v < curvature.size(); ++v)
+    smooth[v] = !boundary[v] && double(curvature[v]) * radius_factor * length <= 1.0;
+  return smooth;
+}
+
+SmoothRegionHausdorff smooth_region_hausdorff(const Mesh& output, const Mesh& input,
+                                              const std::vector<bool>& input_faces, float length,
+                                              float radius_factor, float spacing) {
+  SmoothRegionHausdorff result;
+  result.radius_factor = radius_factor;
+  std::vector<bool> smooth_faces = faces_within(input, smooth_vertices(input, length, radius_factor));
+  std::size_t selected = 0, smooth = 0;
+  for (std::size_t f = 0; f < smooth_faces.size(); ++f) {
+    const bool is_selected = input_faces.empty() || input_faces[f];
+    smooth_faces[f] = smooth_faces[f] && is_selected;
+    selected += is_selected;
+    smooth += smooth_faces[f];
+  }
+  if (smooth == 0) return result;
+  result.input_fraction = double(smooth) / double(selected);
+  const TriangleBvh input_bvh(input);
+  std::vector<std::uint8_t> closest_is_smooth(output.vertex_count());  // bytes: written in parallel
+  parallel_chunks(std::int64_t(output.vertex_count()), 4096, [&](std::int64_t begin, std::int64_t end) {
+    for (std::int64_t v = begin; v < end; ++v) {
+      const std::uint32_t face = input_bvh.closest_point(output.positions[v]).face;
+      closest_is_smooth[v] = face < smooth_faces.size() && smooth_faces[face];
+    }
+  });
+  const std::vector<bool> output_faces =
+      faces_within(output, std::vector<bool>(closest_is_smooth.begin(), closest_is_smooth.end()));
+  // An empty selection would mean every face.
+  if (std::find(output_faces.begin(), output_faces.end(), true) == output_faces.end()) return result;
+  result.hausdorff = hausdorff_distance(output, output_faces, input, smooth_faces, spacing);
+  return result;
 }
 
 }  // namespace pg

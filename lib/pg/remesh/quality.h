@@ -48,6 +48,26 @@ struct HausdorffDistance {
 HausdorffDistance hausdorff_distance(const Mesh& a, const std::vector<bool>& a_faces, const Mesh& b,
                                      const std::vector<bool>& b_faces, float spacing);
 
+// Where the surface is smooth at scale `length`: vertices off the boundary whose largest principal
+// curvature radius (max_abs_curvature at the vertex itself, not averaged, so that a vertex standing
+// out of its ring counts as curved) is at least radius_factor * length. An equilateral triangle of side 4/3 L
+// (the split bound) inscribed in a sphere of radius R leaves it by 0.3 L^2 / R, so radius_factor 3 is where
+// an isotropic mesh at L can stay within 0.1 L of the surface at all.
+std::vector<bool> smooth_vertices(const Mesh& mesh, float length, float radius_factor);
+
+struct SmoothRegionHausdorff {
+  float radius_factor = 3;
+  double input_fraction = 0;    // of the selected input faces, those that are smooth
+  HausdorffDistance hausdorff;  // zero when nothing is smooth
+};
+
+// hausdorff_distance restricted to where `input` is smooth at scale `length` (smooth_vertices):
+// the selected input faces (empty = every face) with three smooth vertices, and the output's faces
+// whose three vertices are closest to such faces; each measured against the other whole surface.
+SmoothRegionHausdorff smooth_region_hausdorff(const Mesh& output, const Mesh& input,
+                                              const std::vector<bool>& input_faces, float length,
+                                              float radius_factor, float spacing);
+
 // Faces whose three vertices are selected.
 std::vector<bool> faces_within(const Mesh& mesh, const std::vector<bool>& selected);
 

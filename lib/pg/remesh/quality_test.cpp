@@ -50,6 +50,23 @@ TEST(Quality, HausdorffOfParallelPlanesIsTheirDistance) {
   EXPECT_NEAR(bump.b_to_a, 0.1 * 0.5 * (1 + std::cos(std::numbers::pi * 0.0125 / 0.25)), 2e-3);
 }
 
+TEST(Quality, SmoothWhereTheCurvatureRadiusIsLargeAgainstL) {
+  const Mesh sphere = test::uv_sphere(32, 64, 1.0f);
+  const std::vector<bool> at_quarter = smooth_vertices(sphere, 0.25f, 3);  // R = 4 L
+  const std::vector<bool> at_half = smooth_vertices(sphere, 0.5f, 3);      // R = 2 L
+  EXPECT_EQ(std::count(at_quarter.begin(), at_quarter.end(), true), std::ptrdiff_t(sphere.vertex_count()));
+  EXPECT_EQ(std::count(at_half.begin(), at_half.end(), true), 0);
+  // A box at L = its grid step: flat sides are smooth, except the crease vertices and the ring next
+  // to them (within L of a crease), leaving 5 x 5 of each side's 9 x 9 vertices.
+  const Mesh box = test::box({1, 1, 1}, 8);
+  const std::vector<bool> smooth = smooth_vertices(box, 0.125f, 3);
+  EXPECT_EQ(std::count(smooth.begin(), smooth.end(), true), 6 * 25);
+  const SmoothRegionHausdorff self = smooth_region_hausdorff(box, box, {}, 0.125f, 3, 0.05f);
+  EXPECT_NEAR(self.input_fraction, 6.0 * 32 / double(box.face_count()), 1e-12);
+  EXPECT_LT(self.hausdorff.distance, 1e-6);
+  EXPECT_GT(self.hausdorff.samples, 0u);
+}
+
 TEST(Region, DeformedVerticesGrownByRings) {
   const Mesh before = test::flat_plane(10);
   Mesh after = before;

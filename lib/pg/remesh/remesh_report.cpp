@@ -67,8 +67,11 @@ RemeshEvaluation evaluate_remesh(const RemeshResult& r) {
   RemeshEvaluation e;
   e.before = measure_quality(r.input, r.input_in_region, r.input_target);
   e.after = measure_quality(r.mesh, r.in_region, r.target);
-  e.hausdorff = hausdorff_distance(r.mesh, faces_touching(r.mesh, r.in_region), r.input,
-                                   faces_touching(r.input, r.input_in_region), 0.25f * r.target_length);
+  const std::vector<bool> input_faces = faces_touching(r.input, r.input_in_region);
+  const float spacing = 0.25f * r.target_length;
+  e.hausdorff =
+      hausdorff_distance(r.mesh, faces_touching(r.mesh, r.in_region), r.input, input_faces, spacing);
+  e.smooth_hausdorff = smooth_region_hausdorff(r.mesh, r.input, input_faces, r.target_length, 3, spacing);
   return e;
 }
 
@@ -105,6 +108,14 @@ nlohmann::ordered_json remesh_report_json(const RemeshResult& r, const RemeshOpt
                       {"output_to_input", e.hausdorff.a_to_b},
                       {"input_to_output", e.hausdorff.b_to_a},
                       {"samples", e.hausdorff.samples}};
+  const SmoothRegionHausdorff& smooth = e.smooth_hausdorff;
+  doc["hausdorff_smooth"] = {{"radius_factor", smooth.radius_factor},
+                             {"input_fraction", smooth.input_fraction},
+                             {"distance", smooth.hausdorff.distance},
+                             {"relative_to_target", smooth.hausdorff.distance / r.target_length},
+                             {"output_to_input", smooth.hausdorff.a_to_b},
+                             {"input_to_output", smooth.hausdorff.b_to_a},
+                             {"samples", smooth.hausdorff.samples}};
   doc["masks_written"] = files.masks_written;
   return doc;
 }

@@ -17,6 +17,8 @@ struct RemeshEvaluation {
   // Between the faces touching the region (region and seam) of output and input; samples at most
   // L / 4 apart.
   HausdorffDistance hausdorff;
+  // The same where the input region is smooth at scale L (smooth_region_hausdorff, radius factor 3).
+  SmoothRegionHausdorff smooth_hausdorff;
 };
 RemeshEvaluation evaluate_remesh(const RemeshResult& result);
 

@@ -22,7 +22,8 @@ std::vector<float> ring_average(const Mesh& mesh, const std::vector<float>& valu
   return out;
 }
 
-// Vertices on an edge used by one face only.
+}  // namespace
+
 std::vector<bool> boundary_vertices(const Mesh& mesh) {
   std::vector<std::uint64_t> edges;
   edges.reserve(mesh.faces.size() * 3);
@@ -42,9 +43,7 @@ std::vector<bool> boundary_vertices(const Mesh& mesh) {
   return boundary;
 }
 
-}  // namespace
-
-std::vector<float> max_abs_curvature(const Mesh& mesh) {
+std::vector<float> max_abs_curvature(const Mesh& mesh, int averaging_rounds) {
   const std::size_t n = mesh.vertex_count();
   std::vector<Eigen::Vector3d> laplace(n, Eigen::Vector3d::Zero());
   std::vector<double> area(n, 0.0), angle_sum(n, 0.0);
@@ -83,7 +82,8 @@ std::vector<float> max_abs_curvature(const Mesh& mesh) {
         }
   for (std::size_t i = 0; i < n; ++i)
     if (boundary[i] && count[i] > 0) curvature[i] = float(sum[i] / count[i]);
-  return ring_average(mesh, ring_average(mesh, curvature));
+  for (int round = 0; round < averaging_rounds; ++round) curvature = ring_average(mesh, curvature);
+  return curvature;
 }
 
 std::vector<float> adaptive_target_lengths(const Mesh& mesh, float approximation_error, float min_length,

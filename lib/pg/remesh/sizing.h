@@ -9,8 +9,12 @@
 namespace pg {
 
 // Per vertex: the largest absolute principal curvature, from the cotangent mean curvature and the
-// angle-deficit Gaussian curvature, averaged over the one-ring twice to calm noise.
-std::vector<float> max_abs_curvature(const Mesh& mesh);
+// angle-deficit Gaussian curvature, averaged over the one-ring `averaging_rounds` times to calm
+// noise. Boundary vertices (no full ring) take the mean of their interior neighbours.
+std::vector<float> max_abs_curvature(const Mesh& mesh, int averaging_rounds = 2);
+
+// Vertices on an edge used by one face only.
+std::vector<bool> boundary_vertices(const Mesh& mesh);
 
 // Per vertex target length sqrt(6 e / k - 3 e^2) clamped to [min_length, max_length].
 std::vector<float> adaptive_target_lengths(const Mesh& mesh, float approximation_error, float min_length,
