@@ -132,6 +132,7 @@ class IsotropicRemesher : private Properties {
       equalize_valences();
       tangential_relaxation();
     }
+    if (iterations > 0) remove_obtuse_pairs();
   }
 
   RemeshStats stats;
@@ -272,8 +273,7 @@ class IsotropicRemesher : private Properties {
     }
   }
 
-  // Flips an edge when that brings the four vertices nearer their ideal valence, keeps both new
-  // faces oriented like the old pair and creates no crease sharper than the feature angle.
+  // Flips an edge when that brings the four vertices nearer their ideal valence and keeps the shape.
   bool flip_improves(EdgeHandle e) const {
     const HalfedgeHandle h0 = mesh_.halfedge_handle(e, 0), h1 = mesh_.halfedge_handle(e, 1);
     const VertexHandle a = mesh_.from_vertex_handle(h0), b = mesh_.to_vertex_handle(h0);
@@ -285,7 +285,18 @@ class IsotropicRemesher : private Properties {
     const int before = std::abs(va - ta) + std::abs(vb - tb) + std::abs(vc - tc) + std::abs(vd - td);
     const int after =
         std::abs(va - 1 - ta) + std::abs(vb - 1 - tb) + std::abs(vc + 1 - tc) + std::abs(vd + 1 - td);
-    if (after >= before || !mesh_.is_flip_ok(e)) return false;
+    if (after >= before) return false;
+    return flip_keeps_shape(e);
+  }
+
+  // Whether flipping e keeps both new faces oriented like the old pair, creates no crease sharper
+  // than the feature angle and no new sliver.
+  bool flip_keeps_shape(EdgeHandle e) const {
+    if (!mesh_.is_flip_ok(e)) return false;
+    const HalfedgeHandle h0 = mesh_.halfedge_handle(e, 0), h1 = mesh_.halfedge_handle(e, 1);
+    const VertexHandle a = mesh_.from_vertex_handle(h0), b = mesh_.to_vertex_handle(h0);
+    const VertexHandle c = mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h0));
+    const VertexHandle d = mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h1));
     const Vec3 &pa = mesh_.point(a), &pb = mesh_.point(b), &pc = mesh_.point(c), &pd = mesh_.point(d);
     const Vec3 old_normal = triangle_normal(pa, pb, pc) + triangle_normal(pb, pa, pd);
     const Vec3 n1 = triangle_normal(pa, pd, pc), n2 = triangle_normal(pd, pb, pc);
@@ -298,6 +309,47 @@ class IsotropicRemesher : private Properties {
     return worst_after >= sliver_angle_deg || worst_after >= worst_before;
   }
 
+  // Whether the two angles facing e sum to more than 180 degrees (e is not locally Delaunay) and
+  // flipping it raises the smaller of the two faces' smallest angles.
+  bool flip_widens_angles(EdgeHandle e) const {
+    const HalfedgeHandle h0 = mesh_.halfedge_handle(e, 0), h1 = mesh_.halfedge_handle(e, 1);
+    const Vec3 &pa = mesh_.point(mesh_.from_vertex_handle(h0)), &pb = mesh_.point(mesh_.to_vertex_handle(h0));
+    const Vec3& pc = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h0)));
+    const Vec3& pd = mesh_.point(mesh_.to_vertex_handle(mesh_.next_halfedge_handle(h1)));
+    const auto angle = [](const Vec3& u, const Vec3& v) {
+      return std::atan2(OpenMesh::cross(u, v).norm(), OpenMesh::dot(u, v));
+    };
+    if (angle(pa - pc, pb - pc) + angle(pa - pd, pb - pd) <= std::numbers::pi_v<float>) return false;
+    const float worst_before = std::min(smallest_angle_deg(pa, pb, pc), smallest_angle_deg(pb, pa, pd));
+    const float worst_after = std::min(smallest_angle_deg(pa, pd, pc), smallest_angle_deg(pd, pb, pc));
+    return worst_after > worst_before;
+  }
+
+  // A last pass after the iterations: flips that widen the smallest angles (caps and needles that
+  // valence flips and relaxation left), features, boundaries and the locked part untouched.
+  void remove_obtuse_pairs() {
+    for (int pass = 0; pass < 5; ++pass) {
+      bool changed = false;
+      for (std::size_t i = 0; i < mesh_.n_edges(); ++i) {
+        const EdgeHandle e{int(i)};
+        if (mesh_.status(e).deleted() || locked(e) || mesh_.property(efeature, e) || mesh_.is_boundary(e))
+          continue;
+        if (!flip_widens_angles(e) || !flip_keeps_shape(e)) continue;
+        flip(e);
+        changed = true;
+      }
+      if (!changed) break;
+    }
+  }
+
+  void flip(EdgeHandle e) {
+    mesh_.flip(e);
+    const HalfedgeHandle h = mesh_.halfedge_handle(e, 0);
+    mesh_.property(fsource, mesh_.face_handle(h)) = 0;
+    mesh_.property(fsource, mesh_.opposite_face_handle(h)) = 0;
+    ++stats.flips;
+  }
+
   void equalize_valences() {
     for (int pass = 0; pass < 5; ++pass) {
       bool changed = false;
@@ -306,11 +358,7 @@ class IsotropicRemesher : private Properties {
         if (mesh_.status(e).deleted() || locked(e) || mesh_.property(efeature, e) || mesh_.is_boundary(e))
           continue;
         if (!flip_improves(e)) continue;
-        mesh_.flip(e);
-        const HalfedgeHandle h = mesh_.halfedge_handle(e, 0);
-        mesh_.property(fsource, mesh_.face_handle(h)) = 0;
-        mesh_.property(fsource, mesh_.opposite_face_handle(h)) = 0;
-        ++stats.flips;
+        flip(e);
         changed = true;
       }
       if (!changed) break;
