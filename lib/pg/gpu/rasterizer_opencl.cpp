@@ -245,18 +245,50 @@ void render_opencl(Renderer&, const Mesh&, const Camera&, const RayTable&, const
 
 #endif
 
+namespace {
+
+bool renders_with_opencl(DeviceKind device) {
+  if (device == DeviceKind::automatic) device = active_device();
+  return device == DeviceKind::opencl || (device == DeviceKind::cuda && opencl_unavailable_reason().empty());
+}
+
+void cpu_fallback_notice(const FailedError& e) {
+  static std::once_flag notice;
+  std::call_once(notice, [&] { log::warn(e.what(), "; rendering on the CPU"); });
+}
+
+}  // namespace
+
+ViewRenderer::ViewRenderer(std::shared_ptr<const RayTable> rays) : rays_(std::move(rays)) {}
+
+ViewRenderer::~ViewRenderer() = default;
+
+void ViewRenderer::render(const Mesh& mesh, const Camera& camera, const RenderOptions& options,
+                          RenderBuffers& out) {
+  try {
+    if (!device_chosen_) {
+      device_chosen_ = true;
+      if (renders_with_opencl(DeviceKind::automatic)) device_ = std::make_unique<OpenClRenderer>(*rays_);
+    }
+    if (device_) {
+      device_->render(mesh, camera, options, out);
+      return;
+    }
+  } catch (const FailedError& e) {
+    cpu_fallback_notice(e);
+    device_.reset();
+  }
+  cpu_.render(mesh, camera, *rays_, options, out);
+}
+
 void render(Renderer& renderer, const Mesh& mesh, const Camera& camera, const RayTable& rays,
             const RenderOptions& options, RenderBuffers& out, DeviceKind device) {
-  if (device == DeviceKind::automatic) device = active_device();
-  const bool opencl =
-      device == DeviceKind::opencl || (device == DeviceKind::cuda && opencl_unavailable_reason().empty());
-  if (opencl) {
+  if (renders_with_opencl(device)) {
     try {
       render_opencl(renderer, mesh, camera, rays, options, out);
       return;
     } catch (const FailedError& e) {
-      static std::once_flag notice;
-      std::call_once(notice, [&] { log::warn(e.what(), "; rendering on the CPU"); });
+      cpu_fallback_notice(e);
     }
   }
   renderer.render(mesh, camera, rays, options, out);

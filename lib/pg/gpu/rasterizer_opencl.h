@@ -42,6 +42,27 @@ class OpenClRenderer {
   std::unique_ptr<detail::RasterizerDevice> device_;
 };
 
+// One view rendered again and again (pg-refine's iterations) on the active device, chosen at the first
+// render: on an OpenCL device an OpenClRenderer keeps the view's ray table uploaded between renders;
+// without a usable device, or once the device fails (memory, driver), every render runs on the CPU
+// after a one-time notice. Same results as render() below.
+class ViewRenderer {
+ public:
+  explicit ViewRenderer(std::shared_ptr<const RayTable> rays);
+  ~ViewRenderer();
+  ViewRenderer(const ViewRenderer&) = delete;
+  ViewRenderer& operator=(const ViewRenderer&) = delete;
+
+  void render(const Mesh& mesh, const Camera& camera, const RenderOptions& options, RenderBuffers& out);
+  bool on_device() const { return device_ != nullptr; }
+
+ private:
+  std::shared_ptr<const RayTable> rays_;
+  Renderer cpu_;
+  std::unique_ptr<OpenClRenderer> device_;
+  bool device_chosen_ = false;
+};
+
 // Renderer::render on `device` (automatic = active_device()). opencl and cuda run the OpenCL kernel
 // (there is no CUDA rasterizer; NVIDIA's driver ships OpenCL) through a one-off OpenClRenderer, so
 // the rays are uploaded on each call; without a usable OpenCL device, or when the device fails

@@ -8,7 +8,6 @@
 
 #include "pg/core/error.h"
 #include "pg/core/parallel.h"
-#include "pg/gpu/rasterizer_opencl.h"
 #include "pg/image/image_io.h"
 
 namespace pg {
@@ -59,7 +58,8 @@ RefineViewState make_view_state(const RefineView& view, double scale) {
     gray = resized;
   }
   state.gray = gray;
-  state.rays = RayTable(state.camera);
+  state.rays = std::make_shared<const RayTable>(state.camera);
+  state.renderer = std::make_unique<gpu::ViewRenderer>(state.rays);
   state.world_from_cam_rotation = state.camera.cam_from_world.rotation_matrix().transpose();
   state.centre = state.camera.cam_from_world.centre();
   return state;
@@ -68,8 +68,7 @@ RefineViewState make_view_state(const RefineView& view, double scale) {
 void render_view_state(const Mesh& mesh, RefineViewState& state) {
   RenderOptions options;
   options.shading = Shading::none;
-  // On the active device (the CPU renderer unchanged when that is the CPU).
-  gpu::render(state.renderer, mesh, state.camera, state.rays, options, state.buffers);
+  state.renderer->render(mesh, state.camera, options, state.buffers);
 }
 
 void synthesize(const Mesh& mesh, const RefineViewState& a, const RefineViewState& b,

@@ -3,10 +3,12 @@
 // (A's image carried through the mesh into B), the flow to the real B and the per-vertex
 // displacements it implies. Internal to refine_mesh; exposed for tests and the benchmark.
 #include <Eigen/Core>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <vector>
 
 #include "pg/camera/camera.h"
+#include "pg/gpu/rasterizer_opencl.h"
 #include "pg/mesh/mesh.h"
 #include "pg/refine/refine.h"
 #include "pg/render/rasterizer.h"
@@ -17,8 +19,9 @@ namespace pg {
 struct RefineViewState {
   Camera camera;   // scaled to the working resolution
   cv::Mat1f gray;  // the photograph, grey in [0, 1], at the working resolution
-  RayTable rays;
-  Renderer renderer;
+  std::shared_ptr<const RayTable> rays;
+  // On the active device, the ray table kept there between iterations.
+  std::unique_ptr<gpu::ViewRenderer> renderer;
   RenderBuffers buffers;  // the current mesh seen from this view (refreshed by render_view_state)
   Eigen::Matrix3d world_from_cam_rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();

@@ -23,33 +23,44 @@ struct DeviceScope {
   ~DeviceScope() { pg::gpu::set_requested_device(DeviceKind::automatic); }
 };
 
-pg::RefineViewState render_on(DeviceKind kind, const pg::Mesh& mesh, const pg::RefineView& view) {
-  const DeviceScope scope(kind);
-  pg::RefineViewState state = pg::make_view_state(view, 1.0);
-  pg::render_view_state(mesh, state);
-  return state;
+// Renders of one mesh on the CPU (a) and the device (b): equal within the rasterizer's tolerance.
+void expect_same_render(const pg::RenderBuffers& a, const pg::RenderBuffers& b) {
+  ASSERT_EQ(a.triangle.size(), b.triangle.size());
+  std::size_t same = 0, hits = 0;
+  for (std::size_t i = 0; i < a.triangle.size(); ++i) {
+    same += a.triangle[i] == b.triangle[i];
+    hits += a.triangle[i] != pg::kNoTriangle;
+    if (a.triangle[i] != b.triangle[i] || a.triangle[i] == pg::kNoTriangle) continue;
+    EXPECT_NEAR(b.b1[i], a.b1[i], 1e-4f);
+    EXPECT_NEAR(b.b2[i], a.b2[i], 1e-4f);
+    const float da = a.depth.ptr<float>()[i], db = b.depth.ptr<float>()[i];
+    EXPECT_LE(std::abs(da - db), 1e-4f * da);
+  }
+  EXPECT_GT(hits, a.triangle.size() / 10);
+  EXPECT_GE(double(same), 0.999 * double(a.triangle.size()));
 }
 
 TEST(RefineDevice, ViewsRenderTheSameOnTheDevice) {
   PG_REQUIRE_OPENCL();
   const auto& f = deform();
   for (const pg::RefineView& view : f.views) {
-    const pg::RefineViewState cpu = render_on(DeviceKind::cpu, *f.scene.initial_mesh, view);
-    const pg::RefineViewState gpu = render_on(DeviceKind::opencl, *f.scene.initial_mesh, view);
-    const pg::RenderBuffers &a = cpu.buffers, &b = gpu.buffers;
-    ASSERT_EQ(a.triangle.size(), b.triangle.size());
-    std::size_t same = 0, hits = 0;
-    for (std::size_t i = 0; i < a.triangle.size(); ++i) {
-      same += a.triangle[i] == b.triangle[i];
-      hits += a.triangle[i] != pg::kNoTriangle;
-      if (a.triangle[i] != b.triangle[i] || a.triangle[i] == pg::kNoTriangle) continue;
-      EXPECT_NEAR(b.b1[i], a.b1[i], 1e-4f);
-      EXPECT_NEAR(b.b2[i], a.b2[i], 1e-4f);
-      const float da = a.depth.ptr<float>()[i], db = b.depth.ptr<float>()[i];
-      EXPECT_LE(std::abs(da - db), 1e-4f * da);
+    pg::RefineViewState cpu = pg::make_view_state(view, 1.0), gpu = pg::make_view_state(view, 1.0);
+    {
+      const DeviceScope scope(DeviceKind::cpu);
+      pg::render_view_state(*f.scene.initial_mesh, cpu);
     }
-    EXPECT_GT(hits, a.triangle.size() / 10);
-    EXPECT_GE(double(same), 0.999 * double(a.triangle.size()));
+    {
+      const DeviceScope scope(DeviceKind::opencl);
+      pg::render_view_state(*f.scene.initial_mesh, gpu);
+    }
+    EXPECT_FALSE(cpu.renderer->on_device());
+    EXPECT_TRUE(gpu.renderer->on_device());
+    expect_same_render(cpu.buffers, gpu.buffers);
+    // The next iteration's mesh, with the view's rays still on the device.
+    pg::render_view_state(f.scene.mesh, cpu);
+    pg::render_view_state(f.scene.mesh, gpu);
+    EXPECT_TRUE(gpu.renderer->on_device());
+    expect_same_render(cpu.buffers, gpu.buffers);
   }
 }
 
