@@ -70,7 +70,9 @@ def main():
     intrinsic = o3d.camera.PinholeCameraIntrinsic(a.size[0], a.size[1], fx, fy, cx, cy)
     color_type = o3d.pipelines.integration.TSDFVolumeColorType.RGB8 if a.color else o3d.pipelines.integration.TSDFVolumeColorType.NoColor
     volume = o3d.pipelines.integration.ScalableTSDFVolume(voxel_length=a.voxel, sdf_trunc=a.truncation, color_type=color_type)
-    frames = []
+    # One frame at a time, as pg-merge reads its inputs: read (not timed), integrate (timed), drop.
+    integrate_seconds = 0.0
+    frames = 0
     for i, extrinsic in enumerate(pose_matrices(a.poses)):
         frame_id = str(i + 1)
         depth = o3d.geometry.Image(read_depth(a.depth.replace("{id}", frame_id)))
@@ -80,18 +82,17 @@ def main():
             color = o3d.geometry.Image(np.zeros((a.size[1], a.size[0], 3), dtype=np.uint8))
         rgbd = o3d.geometry.RGBDImage.create_from_color_and_depth(
             color, depth, depth_scale=a.depth_scale, depth_trunc=a.max_depth, convert_rgb_to_intensity=False)
-        frames.append((rgbd, extrinsic))  # read everything first: only integration is timed
-
-    start = time.perf_counter()
-    for rgbd, extrinsic in frames:
+        start = time.perf_counter()
         volume.integrate(rgbd, intrinsic, extrinsic)
-    integrate_seconds = time.perf_counter() - start
+        integrate_seconds += time.perf_counter() - start
+        frames += 1
+        del rgbd, depth, color
     start = time.perf_counter()
     mesh = volume.extract_triangle_mesh()
     extract_seconds = time.perf_counter() - start
     o3d.io.write_triangle_mesh(a.out, mesh)
     print(json.dumps({
-        "integrate_ms_per_frame": 1000 * integrate_seconds / len(frames),
+        "integrate_ms_per_frame": 1000 * integrate_seconds / frames,
         "extract_seconds": extract_seconds,
         "peak_bytes": peak_resident_bytes(),
         "vertices": len(mesh.vertices),
