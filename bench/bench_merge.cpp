@@ -3,10 +3,12 @@
 //   - the 5 real Kinect frames (640x480) at 10 mm and 4 mm voxels;
 //   - 8 RGB-D frames rendered exactly from the Stanford bunny reference at 2 mm and 1 mm voxels.
 // Each merge runs in its own process (this binary with --pg, or the Python script), so the peak
-// memory is the merge's own; both read one frame at a time, as pg-merge does. Prints integration ms per
-// frame, extraction seconds, peak memory, the meshes' distance to each other, the fraction of depth pixels
-// within 2 voxels of each mesh, and the accuracy and completeness of both against the bunny reference. Usage:
-// bench_merge [DATA_DIR] [kinect|bunny]   (the second argument runs that set alone)
+// memory is the merge's own; both read one frame at a time, as pg-merge does. Prints integration ms
+// per frame, extraction seconds, peak memory, the meshes' distance to each other, the fraction of
+// depth pixels within 2 voxels of each mesh, and the accuracy and completeness of both against the
+// bunny reference.
+//
+// Usage: bench_merge [DATA_DIR] [kinect|bunny]   (the second argument runs that set alone)
 #include <fcntl.h>
 #include <spawn.h>
 #include <sys/wait.h>
