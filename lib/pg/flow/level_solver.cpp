@@ -479,8 +479,6 @@ bool run_on_device(const Step& step) {
 
 bool LevelSolver::use_device(gpu::IncrementMode mode) const {
   if (gpu::active_device() == gpu::DeviceKind::cpu) return false;
-  // In the epipolar mode a CUDA request runs the OpenCL kernel (line_increments); both see the same
-  // GPU, so the CUDA device's limits stand in for it.
   const gpu::DeviceInfo device = gpu::active_device_info();
   const gpu::DeviceFootprint need = gpu::increments_footprint(images_->size(), mode);
   if (gpu::fits_on(need, device)) return true;

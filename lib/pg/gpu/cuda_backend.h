@@ -12,5 +12,6 @@ namespace pg::gpu::detail {
 std::vector<DeviceInfo> cuda_devices(std::string& reason);
 // Runs the flow increments on CUDA device 0; only called when cuda_devices() is non-empty.
 void cuda_flow_increments(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv);
+void cuda_line_increments(const LineIncrementInput& input, cv::Mat1f& ds);
 
 }  // namespace pg::gpu::detail

@@ -15,5 +15,9 @@ void cuda_flow_increments(const FlowIncrementInput&, cv::Mat1f&, cv::Mat1f&) {
   throw FailedError("CUDA flow increments called in a build without CUDA");
 }
 
+void cuda_line_increments(const LineIncrementInput&, cv::Mat1f&) {
+  throw FailedError("CUDA line increments called in a build without CUDA");
+}
+
 }  // namespace pg::gpu::detail
 #endif

@@ -206,9 +206,14 @@ bool fits_on(const DeviceFootprint& footprint, const DeviceInfo& device) {
 void line_increments(const LineIncrementInput& input, cv::Mat1f& ds, DeviceKind device) {
   if (device == DeviceKind::automatic) device = active_device();
   check_input(input);
-  if (device == DeviceKind::cuda && opencl_unavailable_reason().empty()) device = DeviceKind::opencl;
-  if (device == DeviceKind::opencl) return line_increments_opencl(input, ds);
-  line_increments_cpu(input, ds);
+  switch (device) {
+    case DeviceKind::cuda:
+      return detail::cuda_line_increments(input, ds);
+    case DeviceKind::opencl:
+      return line_increments_opencl(input, ds);
+    default:
+      return line_increments_cpu(input, ds);
+  }
 }
 
 void flow_increments(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv, DeviceKind device) {

@@ -10,8 +10,8 @@
 // 1e-4 px in (du, dv), well below the 0.01 px flow EPE tolerance.
 //
 // The epipolar mode (LevelSolver::solve_along) has its own scalar system: the flow is base + s * d
-// with one unknown s per pixel; line_increments_* compute its increment ds the same way (CPU reference
-// and OpenCL; no CUDA kernel, see line_increments).
+// with one unknown s per pixel; line_increments_* compute its increment ds the same way (CPU reference,
+// OpenCL and CUDA).
 //
 // A level is solved on the device in one piece: stages check flow_increments_fit first and keep a level
 // that does not fit on the CPU. (Tiles would give the same result only with halos as wide as a warp's
@@ -62,8 +62,7 @@ void flow_increments(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& 
 // The increment ds of one warp of the epipolar mode, starting from zero; ds is (re)allocated.
 void line_increments_cpu(const LineIncrementInput& input, cv::Mat1f& ds);
 void line_increments_opencl(const LineIncrementInput& input, cv::Mat1f& ds);
-// On `device`; there is no CUDA kernel for it, so cuda runs the OpenCL kernel where an OpenCL device
-// is usable (NVIDIA's driver ships one) and the CPU reference otherwise.
+// On `device` (cpu, opencl or cuda; automatic = active_device()).
 void line_increments(const LineIncrementInput& input, cv::Mat1f& ds,
                      DeviceKind device = DeviceKind::automatic);
 

@@ -110,8 +110,8 @@ TEST(LineIncrements, CpuReferenceConvergesToTheDisparity) {
   EXPECT_LT(cv::norm(ds(cv::Rect(4, 4, 56, 40)) - 0.6f, cv::NORM_INF), 0.01);
 }
 
-TEST(LineIncrements, OpenClEqualsCpu) {
-  PG_REQUIRE_OPENCL();
+// Curved lines, a discontinuous start and one pixel without a line: `device` against the CPU.
+void expect_line_increments_equal_cpu(DeviceKind device) {
   for (const cv::Size size : {cv::Size(67, 45), cv::Size(128, 96)}) {
     LineIncrementInput in = line_problem(size.width, size.height, 0.8f);
     for (int y = 0; y < size.height; ++y)
@@ -120,13 +120,24 @@ TEST(LineIncrements, OpenClEqualsCpu) {
         in.direction(y, x) = cv::Vec2f(-std::cos(0.01f * y), std::sin(0.01f * y));
       }
     in.direction(3, 5) = cv::Vec2f(std::nanf(""), std::nanf(""));  // a pixel without a line
-    cv::Mat1f ds_cpu, ds_cl;
+    cv::Mat1f ds_cpu, ds_device;
     line_increments_cpu(in, ds_cpu);
-    line_increments(in, ds_cl, DeviceKind::opencl);
-    EXPECT_LT(largest_difference(ds_cpu, ds_cl), 1e-4) << size;
+    line_increments(in, ds_device, device);
+    EXPECT_LT(largest_difference(ds_cpu, ds_device), 1e-4) << size;
     EXPECT_GT(cv::norm(ds_cpu, cv::NORM_INF), 0.1);
-    EXPECT_TRUE(std::isfinite(ds_cl(3, 5)));
+    EXPECT_TRUE(std::isfinite(ds_device(3, 5)));
   }
+}
+
+TEST(LineIncrements, OpenClEqualsCpu) {
+  PG_REQUIRE_OPENCL();
+  expect_line_increments_equal_cpu(DeviceKind::opencl);
+}
+
+TEST(LineIncrements, CudaEqualsCpu) {
+  const std::string reason = cuda_unavailable_reason();
+  if (!reason.empty()) GTEST_SKIP() << "no CUDA device (" << reason << ")";
+  expect_line_increments_equal_cpu(DeviceKind::cuda);
 }
 
 TEST(DeviceFootprint, CountsEveryPlaneAndComparesWithTheDeviceLimits) {
