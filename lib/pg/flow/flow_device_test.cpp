@@ -8,6 +8,7 @@
 
 #include "pg/flow/flow.h"
 #include "pg/gpu/device.h"
+#include "pg/gpu/flow_increments.h"
 #include "pg/gpu/test_support.h"
 
 namespace {
@@ -115,6 +116,33 @@ TEST(FlowDevice, EpipolarFlowOnOpenClMatchesTheCpuWithinAHundredthOfAPixel) {
   EXPECT_LT(opencl_error, 0.1);
   EXPECT_LT(std::abs(cpu_error - opencl_error), 0.01);
   EXPECT_LT(mean_epe(cpu, opencl), 0.01);
+}
+
+TEST(FlowDevice, LevelsTooLargeForTheDeviceAreSolvedInBandsWithTheSameResult) {
+  PG_REQUIRE_OPENCL();
+  const SyntheticPair pair = warped_pair({256, 192}, [](float x, float y) {
+    return cv::Vec2f(1.5f + 1.2f * float(std::sin(2 * pi * x / 256)),
+                     -0.8f + 0.9f * float(std::cos(2 * pi * y / 192)));
+  });
+  pg::FlowOptions options;
+  options.fixed_point_iterations = 2;  // a reach of 2 * (2 * 5 + 3) = 26 rows, so bands fit below 192
+  options.sor_iterations = 5;
+  const auto solve = [&] { return pg::compute_flow(pair.from, pair.to, options); };
+  const cv::Mat2f cpu = on_device(pg::gpu::DeviceKind::cpu, solve);
+  // Room for 120 rows of the finest level (25 planes of 256 floats each): it runs in bands of 120 -
+  // 2 * 26 = 68 rows, the coarser levels in one piece.
+  pg::gpu::limit_flow_device_memory(25ull * 256 * 4 * 120);
+  ASSERT_EQ(pg::gpu::increments_band_rows({256, 192}, pg::gpu::IncrementMode::free,
+                                          {.fixed_point_iterations = 2, .sor_iterations = 5},
+                                          pg::gpu::flow_device_info(pg::gpu::DeviceKind::opencl)),
+            68);
+  const cv::Mat2f banded = on_device(pg::gpu::DeviceKind::opencl, solve);
+  pg::gpu::limit_flow_device_memory(0);
+  const double cpu_error = mean_epe(cpu, pair.truth), banded_error = mean_epe(banded, pair.truth);
+  record(cpu_error, banded_error, mean_epe(cpu, banded));
+  EXPECT_LT(cpu_error, 0.1);
+  EXPECT_LT(std::abs(cpu_error - banded_error), 0.01);
+  EXPECT_LT(mean_epe(cpu, banded), 0.01);
 }
 
 }  // namespace

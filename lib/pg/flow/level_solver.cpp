@@ -479,12 +479,19 @@ bool run_on_device(const Step& step) {
 
 bool LevelSolver::use_device(gpu::IncrementMode mode) const {
   if (gpu::active_device() == gpu::DeviceKind::cpu) return false;
-  const gpu::DeviceInfo device = gpu::active_device_info();
+  const gpu::DeviceInfo device = gpu::flow_device_info();
+  const int band_rows = gpu::increments_band_rows(images_->size(), mode, increment_options(), device);
+  if (band_rows >= rows_) return true;
   const gpu::DeviceFootprint need = gpu::increments_footprint(images_->size(), mode);
-  if (gpu::fits_on(need, device)) return true;
-  log::info("flow: a ", cols_, "x", rows_, " level needs ", need.total >> 20, " MiB (largest buffer ",
-            need.largest_buffer >> 20, " MiB) but ", device.name, " has ", device.global_memory >> 20,
-            " MiB (largest allocation ", device.max_allocation >> 20, " MiB); solving it on the CPU");
+  const std::string what =
+      str("flow: a ", cols_, "x", rows_, " level needs ", need.total >> 20, " MiB (largest buffer ",
+          need.largest_buffer >> 20, " MiB) but ", device.name, " has ", device.global_memory >> 20,
+          " MiB (largest allocation ", device.max_allocation >> 20, " MiB); ");
+  if (band_rows > 0) {
+    log::info(what, "solving it on the device in bands of ", band_rows, " rows");
+    return true;
+  }
+  log::info(what, "solving it on the CPU");
   return false;
 }
 

@@ -4,10 +4,13 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "pg/core/error.h"
+#include "pg/core/log.h"
 #include "pg/gpu/cuda_backend.h"
+#include "pg/gpu/opencl_runtime.h"
 
 namespace pg::gpu {
 namespace {
@@ -203,14 +206,143 @@ bool fits_on(const DeviceFootprint& footprint, const DeviceInfo& device) {
          footprint.largest_buffer <= device.max_allocation;
 }
 
+int increments_reach(const FlowIncrementOptions& o) {
+  // Per fixed-point iteration: the robust weights and the system read up to two rows away, and each
+  // of the 2 * sor_iterations colour passes one more.
+  return o.fixed_point_iterations * (2 * o.sor_iterations + 3);
+}
+
+int increments_band_rows(cv::Size size, IncrementMode mode, const FlowIncrementOptions& options,
+                         const DeviceInfo& device) {
+  if (device.kind == DeviceKind::cpu || size.area() <= 0) return 0;
+  if (fits_on(increments_footprint(size, mode), device)) return size.height;
+  // The most rows of this width that fit, less the halos; even, so that bands keep the colouring.
+  int fitting = size.height;
+  while (fitting > 0 && !fits_on(increments_footprint({size.width, fitting}, mode), device)) fitting /= 2;
+  for (int step = fitting / 2; step > 0; step /= 2)
+    if (fits_on(increments_footprint({size.width, fitting + step}, mode), device)) fitting += step;
+  const int halo = increments_reach(options) + (increments_reach(options) & 1);
+  const int band = (fitting - 2 * halo) / 2 * 2;
+  return band >= 2 ? band : 0;
+}
+
+namespace {
+
+std::atomic<std::uint64_t> memory_limit{0};
+
+}  // namespace
+
+void limit_flow_device_memory(std::uint64_t bytes) {
+  memory_limit = bytes;
+}
+
+DeviceInfo flow_device_info(DeviceKind device) {
+  if (device == DeviceKind::automatic) device = active_device();
+  DeviceInfo info;
+  if (device == DeviceKind::opencl) {
+    if (auto* runtime = detail::OpenClRuntime::get()) info = runtime->info();
+  } else if (device == DeviceKind::cuda) {
+    std::string reason;
+    const std::vector<DeviceInfo> devices = detail::cuda_devices(reason);
+    if (!devices.empty()) info = devices.front();
+  }
+  if (const std::uint64_t limit = memory_limit; limit > 0 && info.kind != DeviceKind::cpu) {
+    info.global_memory = std::min(info.global_memory, limit);
+    info.max_allocation = std::min(info.max_allocation, limit);
+  }
+  return info;
+}
+
+namespace {
+
+cv::Mat1f rows_of(const cv::Mat1f& m, int begin, int end) {
+  return m.rowRange(begin, end);  // full-width rows of a continuous matrix: continuous
+}
+cv::Mat2f rows_of(const cv::Mat2f& m, int begin, int end) {
+  return m.rowRange(begin, end);
+}
+std::array<cv::Mat1f, 6> rows_of(const std::array<cv::Mat1f, 6>& tensor, int begin, int end) {
+  std::array<cv::Mat1f, 6> out;
+  for (int k = 0; k < 6; ++k) out[k] = rows_of(tensor[k], begin, end);
+  return out;
+}
+
+FlowIncrementInput rows_of(const FlowIncrementInput& in, int begin, int end) {
+  FlowIncrementInput out;
+  out.brightness = rows_of(in.brightness, begin, end), out.gradient = rows_of(in.gradient, begin, end);
+  out.smoothness = rows_of(in.smoothness, begin, end);
+  out.u = rows_of(in.u, begin, end), out.v = rows_of(in.v, begin, end);
+  out.options = in.options;
+  return out;
+}
+
+LineIncrementInput rows_of(const LineIncrementInput& in, int begin, int end) {
+  LineIncrementInput out;
+  out.brightness = rows_of(in.brightness, begin, end), out.gradient = rows_of(in.gradient, begin, end);
+  out.smoothness = rows_of(in.smoothness, begin, end);
+  out.s = rows_of(in.s, begin, end), out.direction = rows_of(in.direction, begin, end);
+  out.options = in.options;
+  return out;
+}
+
+// Runs `solve(band input, band outputs...)` on bands of `band_rows` rows, each with halos of
+// increments_reach rows (even, from an even row: the red-black colouring is the whole image's), and
+// keeps each band's own rows: exactly the whole-image result, since no row's result reaches further.
+template <class Input, class Solve, class... Outputs>
+void in_bands(const Input& in, int band_rows, const Solve& solve, Outputs&... outputs) {
+  const int rows = in.size().height, cols = in.size().width;
+  const int halo = increments_reach(in.options) + (increments_reach(in.options) & 1);
+  (outputs.create(rows, cols), ...);
+  std::array<cv::Mat1f, sizeof...(Outputs)> band_out;
+  for (int y0 = 0; y0 < rows; y0 += band_rows) {
+    const int y1 = std::min(rows, y0 + band_rows);
+    const int begin = std::max(0, y0 - halo), end = std::min(rows, y1 + halo);
+    std::apply([&](auto&... b) { solve(rows_of(in, begin, end), b...); }, band_out);
+    int k = 0;
+    ((band_out[k++].rowRange(y0 - begin, y1 - begin).copyTo(outputs.rowRange(y0, y1))), ...);
+  }
+}
+
+template <class Input, class Solve, class... Outputs>
+void on_device(const Input& in, DeviceKind device, IncrementMode mode, const Solve& solve,
+               Outputs&... outputs) {
+  const int band_rows = increments_band_rows(in.size(), mode, in.options, flow_device_info(device));
+  if (band_rows == 0)
+    throw FailedError(str("flow increments: a ", in.size().width, "-pixel-wide level does not fit the ",
+                          to_string(device), " device even in bands"));
+  if (band_rows >= in.size().height) return solve(in, outputs...);
+  in_bands(in, band_rows, solve, outputs...);
+}
+
+}  // namespace
+
+void line_increments_banded(const LineIncrementInput& input, cv::Mat1f& ds, DeviceKind device,
+                            int band_rows) {
+  check_input(input);
+  in_bands(
+      input, band_rows,
+      [&](const LineIncrementInput& band, cv::Mat1f& out) { line_increments(band, out, device); }, ds);
+}
+
+void flow_increments_banded(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv, DeviceKind device,
+                            int band_rows) {
+  check_input(input);
+  in_bands(
+      input, band_rows,
+      [&](const FlowIncrementInput& band, cv::Mat1f& u_out, cv::Mat1f& v_out) {
+        flow_increments(band, u_out, v_out, device);
+      },
+      du, dv);
+}
+
 void line_increments(const LineIncrementInput& input, cv::Mat1f& ds, DeviceKind device) {
   if (device == DeviceKind::automatic) device = active_device();
   check_input(input);
   switch (device) {
     case DeviceKind::cuda:
-      return detail::cuda_line_increments(input, ds);
+      return on_device(input, device, IncrementMode::line, detail::cuda_line_increments, ds);
     case DeviceKind::opencl:
-      return line_increments_opencl(input, ds);
+      return on_device(input, device, IncrementMode::line, line_increments_opencl, ds);
     default:
       return line_increments_cpu(input, ds);
   }
@@ -221,9 +353,9 @@ void flow_increments(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& 
   check_input(input);
   switch (device) {
     case DeviceKind::cuda:
-      return detail::cuda_flow_increments(input, du, dv);
+      return on_device(input, device, IncrementMode::free, detail::cuda_flow_increments, du, dv);
     case DeviceKind::opencl:
-      return flow_increments_opencl(input, du, dv);
+      return on_device(input, device, IncrementMode::free, flow_increments_opencl, du, dv);
     default:
       return flow_increments_cpu(input, du, dv);
   }

@@ -13,9 +13,9 @@
 // with one unknown s per pixel; line_increments_* compute its increment ds the same way (CPU reference,
 // OpenCL and CUDA).
 //
-// A level is solved on the device in one piece: stages check flow_increments_fit first and keep a level
-// that does not fit on the CPU. (Tiles would give the same result only with halos as wide as a warp's
-// reach, fixed_point_iterations * (2 * sor_iterations + 2) pixels, 110 at the defaults; not done.)
+// A level that does not fit the device is solved in horizontal bands, each with halos as tall as a
+// warp's reach (increments_reach: 115 rows at the defaults) and kept only for its own rows, so the
+// result is the same as in one piece; a level too wide for even one band stays on the CPU.
 #include <array>
 #include <cstdint>
 #include <opencv2/core.hpp>
@@ -66,6 +66,10 @@ void line_increments_opencl(const LineIncrementInput& input, cv::Mat1f& ds);
 void line_increments(const LineIncrementInput& input, cv::Mat1f& ds,
                      DeviceKind device = DeviceKind::automatic);
 
+// Rows on either side that one row's increments depend on: fixed_point_iterations * (2 *
+// sor_iterations + 3).
+int increments_reach(const FlowIncrementOptions& options);
+
 // Device memory one warp needs at `size`: all buffers together and the largest single one (bytes).
 struct DeviceFootprint {
   std::uint64_t total = 0, largest_buffer = 0;
@@ -74,5 +78,24 @@ enum class IncrementMode { free, line };
 DeviceFootprint increments_footprint(cv::Size size, IncrementMode mode);
 // Whether that fits the device's global memory and per-allocation limit. False for a CPU DeviceInfo.
 bool fits_on(const DeviceFootprint& footprint, const DeviceInfo& device);
+
+// Rows per band for a level of `size` on `device`: the whole height when it fits in one piece, else
+// an even count that fits together with two halos of increments_reach rows; 0 when not even two
+// rows do (or on the CPU). flow_increments and line_increments band by it.
+int increments_band_rows(cv::Size size, IncrementMode mode, const FlowIncrementOptions& options,
+                         const DeviceInfo& device);
+
+// The device `device` names (automatic = active_device()) as the flow increments see it: its memory
+// capped by limit_flow_device_memory. A default DeviceInfo (kind cpu) when there is none.
+DeviceInfo flow_device_info(DeviceKind device = DeviceKind::automatic);
+// Caps the device memory the flow increments see (bytes; 0 = no cap), as on a smaller device: levels
+// that no longer fit are solved in bands. For the tests.
+void limit_flow_device_memory(std::uint64_t bytes);
+
+// The same increments computed in bands of `band_rows` rows (even) on `device`, as for a device too
+// small for the level; equal to the unbanded result. For the tests.
+void flow_increments_banded(const FlowIncrementInput& input, cv::Mat1f& du, cv::Mat1f& dv, DeviceKind device,
+                            int band_rows);
+void line_increments_banded(const LineIncrementInput& input, cv::Mat1f& ds, DeviceKind device, int band_rows);
 
 }  // namespace pg::gpu

@@ -140,6 +140,71 @@ TEST(LineIncrements, CudaEqualsCpu) {
   expect_line_increments_equal_cpu(DeviceKind::cuda);
 }
 
+// A level with structure in every row (a flow step, row-varying smoothness) and options whose reach
+// (2 * (2 * 3 + 3) = 18 rows) is smaller than the image, so that bands of 20 rows have real halos.
+FlowIncrementInput banding_problem() {
+  FlowIncrementInput in = translation_problem(67, 130, 0.7f, -0.4f);
+  for (int y = 0; y < in.u.rows; ++y)
+    for (int x = 0; x < in.u.cols; ++x) {
+      in.u(y, x) = 0.3f * std::sin(0.1f * x) + (y > 70 ? 0.5f : 0.f);
+      in.smoothness(y, x) = 0.02f * (1.5f + std::sin(0.2f * y));
+    }
+  in.options.fixed_point_iterations = 2;
+  in.options.sor_iterations = 3;
+  return in;
+}
+
+TEST(FlowIncrements, BandsWithHalosGiveTheWholeLevelsResult) {
+  const FlowIncrementInput in = banding_problem();
+  ASSERT_EQ(increments_reach(in.options), 18);
+  cv::Mat1f du, dv, du_banded, dv_banded;
+  flow_increments_cpu(in, du, dv);
+  // On the CPU the bands reproduce the whole level bit for bit: no row's result reaches further.
+  flow_increments_banded(in, du_banded, dv_banded, DeviceKind::cpu, 20);
+  EXPECT_EQ(largest_difference(du, du_banded), 0);
+  EXPECT_EQ(largest_difference(dv, dv_banded), 0);
+  EXPECT_GT(cv::norm(du, cv::NORM_INF), 0.1);
+  if (!opencl_unavailable_reason().empty()) GTEST_SKIP() << "no OpenCL device for the device bands";
+  flow_increments_banded(in, du_banded, dv_banded, DeviceKind::opencl, 20);
+  EXPECT_LT(largest_difference(du, du_banded), 1e-4);
+  EXPECT_LT(largest_difference(dv, dv_banded), 1e-4);
+}
+
+TEST(LineIncrements, BandsWithHalosGiveTheWholeLevelsResult) {
+  const FlowIncrementInput flow = banding_problem();
+  LineIncrementInput in;
+  in.brightness = flow.brightness, in.gradient = flow.gradient, in.smoothness = flow.smoothness;
+  in.options = flow.options;
+  in.s = flow.u.clone();
+  in.direction = cv::Mat2f(flow.u.size());
+  for (int y = 0; y < in.s.rows; ++y)
+    for (int x = 0; x < in.s.cols; ++x)
+      in.direction(y, x) = cv::Vec2f(-std::cos(0.01f * y), std::sin(0.01f * y));
+  cv::Mat1f ds, ds_banded;
+  line_increments_cpu(in, ds);
+  line_increments_banded(in, ds_banded, DeviceKind::cpu, 20);
+  EXPECT_EQ(largest_difference(ds, ds_banded), 0);
+  EXPECT_GT(cv::norm(ds, cv::NORM_INF), 0.1);
+  if (!opencl_unavailable_reason().empty()) GTEST_SKIP() << "no OpenCL device for the device bands";
+  line_increments_banded(in, ds_banded, DeviceKind::opencl, 20);
+  EXPECT_LT(largest_difference(ds, ds_banded), 1e-4);
+}
+
+TEST(DeviceFootprint, BandRowsLeaveRoomForTwoHalos) {
+  const cv::Size size(1000, 500);
+  const FlowIncrementOptions defaults;  // reach 115 rows, halos of 116 (even)
+  DeviceInfo device;
+  device.kind = DeviceKind::opencl;
+  device.global_memory = increments_footprint(size, IncrementMode::free).total;
+  device.max_allocation = device.global_memory;
+  EXPECT_EQ(increments_band_rows(size, IncrementMode::free, defaults, device), 500);  // one piece
+  device.global_memory = increments_footprint({1000, 301}, IncrementMode::free).total;
+  EXPECT_EQ(increments_band_rows(size, IncrementMode::free, defaults, device), 301 - 2 * 116 - 1);
+  device.global_memory = increments_footprint({1000, 233}, IncrementMode::free).total;
+  EXPECT_EQ(increments_band_rows(size, IncrementMode::free, defaults, device), 0);        // halos only
+  EXPECT_EQ(increments_band_rows(size, IncrementMode::free, defaults, DeviceInfo{}), 0);  // the CPU
+}
+
 TEST(DeviceFootprint, CountsEveryPlaneAndComparesWithTheDeviceLimits) {
   const cv::Size size(1000, 500);
   const std::uint64_t plane = 1000 * 500 * 4;
