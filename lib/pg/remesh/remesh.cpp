@@ -328,13 +328,24 @@ class IsotropicRemesher : private Properties {
   // A last pass after the iterations: flips that widen the smallest angles (caps and needles that
   // valence flips and relaxation left), features, boundaries and the locked part untouched.
   void remove_obtuse_pairs() {
+    flip_while([&](EdgeHandle e) { return flip_widens_angles(e) && flip_keeps_shape(e); });
+  }
+
+  void equalize_valences() {
+    flip_while([&](EdgeHandle e) { return flip_improves(e); });
+  }
+
+  // Up to five passes over the free edges (not locked, feature or boundary), flipping those
+  // `should_flip` accepts, until a pass flips none.
+  template <class ShouldFlip>
+  void flip_while(const ShouldFlip& should_flip) {
     for (int pass = 0; pass < 5; ++pass) {
       bool changed = false;
       for (std::size_t i = 0; i < mesh_.n_edges(); ++i) {
         const EdgeHandle e{int(i)};
         if (mesh_.status(e).deleted() || locked(e) || mesh_.property(efeature, e) || mesh_.is_boundary(e))
           continue;
-        if (!flip_widens_angles(e) || !flip_keeps_shape(e)) continue;
+        if (!should_flip(e)) continue;
         flip(e);
         changed = true;
       }
@@ -348,21 +359,6 @@ class IsotropicRemesher : private Properties {
     mesh_.property(fsource, mesh_.face_handle(h)) = 0;
     mesh_.property(fsource, mesh_.opposite_face_handle(h)) = 0;
     ++stats.flips;
-  }
-
-  void equalize_valences() {
-    for (int pass = 0; pass < 5; ++pass) {
-      bool changed = false;
-      for (std::size_t i = 0; i < mesh_.n_edges(); ++i) {
-        const EdgeHandle e{int(i)};
-        if (mesh_.status(e).deleted() || locked(e) || mesh_.property(efeature, e) || mesh_.is_boundary(e))
-          continue;
-        if (!flip_improves(e)) continue;
-        flip(e);
-        changed = true;
-      }
-      if (!changed) break;
-    }
   }
 
   // The new position of a free vertex: towards the area-weighted centroid of its faces within its
