@@ -306,7 +306,9 @@ void in_bands(const Input& in, int band_rows, const Solve& solve, Outputs&... ou
 template <class Input, class Solve, class... Outputs>
 void on_device(const Input& in, DeviceKind device, IncrementMode mode, const Solve& solve,
                Outputs&... outputs) {
-  const int band_rows = increments_band_rows(in.size(), mode, in.options, flow_device_info(device));
+  const DeviceInfo info = flow_device_info(device);
+  if (info.kind == DeviceKind::cpu) return solve(in, outputs...);  // not usable: the backend says why
+  const int band_rows = increments_band_rows(in.size(), mode, in.options, info);
   if (band_rows == 0)
     throw FailedError(str("flow increments: a ", in.size().width, "-pixel-wide level does not fit the ",
                           to_string(device), " device even in bands"));
