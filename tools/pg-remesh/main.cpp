@@ -150,8 +150,9 @@ int main(int argc, char** argv) {
       result = pg::remesh(mesh, o);
     }
     result.mesh.provenance = pg::Provenance::current();
-    pg::write_mesh(f.out, result.mesh);
 
+    // The mesh is written last: a run killed part-way never leaves it beside a missing mask or
+    // report, so a Make rule that goes by the mesh reruns the step.
     pg::RemeshReportFiles files{f.in, f.out, region_source, {}};
     for (const std::string& name : mask_names) {
       const fs::path path = mask_output_path(f.out, name);
@@ -170,6 +171,7 @@ int main(int argc, char** argv) {
     if (!f.quality_report.empty())
       pg::write_remesh_report(f.quality_report, pg::remesh_report_json(result, o, evaluation, files));
     if (!f.histogram.empty()) pg::write_quality_png(f.histogram, evaluation);
+    pg::write_mesh(f.out, result.mesh);
 
     const pg::RemeshStats& s = result.stats;
     pg::RunReport& report = pg::RunReport::global();
