@@ -204,20 +204,6 @@ void OpenClRenderer::limit_band_rows(int rows) {
   device_->max_band_rows = rows;
 }
 
-namespace {
-
-void render_opencl(Renderer& renderer, const Mesh& mesh, const Camera& camera, const RayTable& rays,
-                   const RenderOptions& options, RenderBuffers& out) {
-  std::unique_ptr<Device> device = open_device();
-  try {
-    rasterize(*device, renderer, mesh, camera, rays, options, out);
-  } catch (const cl::Error& e) {
-    throw FailedError(str("OpenCL rasterizer failed: ", e.what(), " error ", e.err()));
-  }
-}
-
-}  // namespace
-
 #else
 
 struct detail::RasterizerDevice {};
@@ -233,15 +219,6 @@ void OpenClRenderer::render(const Mesh&, const Camera&, const RenderOptions&, Re
 }
 
 void OpenClRenderer::limit_band_rows(int) {}
-
-namespace {
-
-void render_opencl(Renderer&, const Mesh&, const Camera&, const RayTable&, const RenderOptions&,
-                   RenderBuffers&) {
-  throw FailedError(str("OpenCL rasterizer: ", opencl_unavailable_reason()));
-}
-
-}  // namespace
 
 #endif
 
@@ -259,7 +236,8 @@ void cpu_fallback_notice(const FailedError& e) {
 
 }  // namespace
 
-ViewRenderer::ViewRenderer(std::shared_ptr<const RayTable> rays) : rays_(std::move(rays)) {}
+ViewRenderer::ViewRenderer(std::shared_ptr<const RayTable> rays, DeviceKind device)
+    : rays_(std::move(rays)), device_kind_(device) {}
 
 ViewRenderer::~ViewRenderer() = default;
 
@@ -268,7 +246,7 @@ void ViewRenderer::render(const Mesh& mesh, const Camera& camera, const RenderOp
   try {
     if (!device_chosen_) {
       device_chosen_ = true;
-      if (renders_with_opencl(DeviceKind::automatic)) device_ = std::make_unique<OpenClRenderer>(*rays_);
+      if (renders_with_opencl(device_kind_)) device_ = std::make_unique<OpenClRenderer>(*rays_);
     }
     if (device_) {
       device_->render(mesh, camera, options, out);
@@ -279,19 +257,6 @@ void ViewRenderer::render(const Mesh& mesh, const Camera& camera, const RenderOp
     device_.reset();
   }
   cpu_.render(mesh, camera, *rays_, options, out);
-}
-
-void render(Renderer& renderer, const Mesh& mesh, const Camera& camera, const RayTable& rays,
-            const RenderOptions& options, RenderBuffers& out, DeviceKind device) {
-  if (renders_with_opencl(device)) {
-    try {
-      render_opencl(renderer, mesh, camera, rays, options, out);
-      return;
-    } catch (const FailedError& e) {
-      cpu_fallback_notice(e);
-    }
-  }
-  renderer.render(mesh, camera, rays, options, out);
 }
 
 }  // namespace pg::gpu

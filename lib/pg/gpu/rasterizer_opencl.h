@@ -42,13 +42,14 @@ class OpenClRenderer {
   std::unique_ptr<detail::RasterizerDevice> device_;
 };
 
-// One view rendered again and again (pg-refine's iterations) on the active device, chosen at the first
-// render: on an OpenCL device an OpenClRenderer keeps the view's ray table uploaded between renders;
-// without a usable device, or once the device fails (memory, driver), every render runs on the CPU
-// after a one-time notice. Same results as render() below.
+// One view rendered again and again (pg-refine's iterations) on `device` (automatic = the active
+// device, resolved at the first render). opencl and cuda run the OpenCL kernel (there is no CUDA
+// rasterizer; NVIDIA's driver ships OpenCL) through an OpenClRenderer that keeps the view's ray table
+// uploaded between renders; cpu is exactly Renderer::render. Without a usable OpenCL device, or once
+// the device fails (memory, driver), every render runs on the CPU after a one-time notice.
 class ViewRenderer {
  public:
-  explicit ViewRenderer(std::shared_ptr<const RayTable> rays);
+  explicit ViewRenderer(std::shared_ptr<const RayTable> rays, DeviceKind device = DeviceKind::automatic);
   ~ViewRenderer();
   ViewRenderer(const ViewRenderer&) = delete;
   ViewRenderer& operator=(const ViewRenderer&) = delete;
@@ -59,16 +60,9 @@ class ViewRenderer {
  private:
   std::shared_ptr<const RayTable> rays_;
   Renderer cpu_;
+  DeviceKind device_kind_;
   std::unique_ptr<OpenClRenderer> device_;
   bool device_chosen_ = false;
 };
-
-// Renderer::render on `device` (automatic = active_device()). opencl and cuda run the OpenCL kernel
-// (there is no CUDA rasterizer; NVIDIA's driver ships OpenCL) through a one-off OpenClRenderer, so
-// the rays are uploaded on each call; without a usable OpenCL device, or when the device fails
-// (memory, driver), `renderer` renders on the CPU (after a one-time notice). cpu is exactly
-// renderer.render(...).
-void render(Renderer& renderer, const Mesh& mesh, const Camera& camera, const RayTable& rays,
-            const RenderOptions& options, RenderBuffers& out, DeviceKind device = DeviceKind::automatic);
 
 }  // namespace pg::gpu

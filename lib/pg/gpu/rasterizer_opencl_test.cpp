@@ -176,17 +176,21 @@ TEST(RasterizerOpenCl, DeformRockAcrossRendersAndShading) {
 TEST(RasterizerOpenCl, DispatchRunsTheCpuRendererOrTheKernel) {
   const Camera cam = pinhole_distorted();
   const Mesh mesh = test_scene(cam);
-  const RayTable rays(cam);
-  Renderer reference, renderer;
+  const auto rays = std::make_shared<const RayTable>(cam);
+  Renderer reference;
   RenderBuffers expected, on_cpu;
-  reference.render(mesh, cam, rays, {}, expected);
-  render(renderer, mesh, cam, rays, {}, on_cpu, DeviceKind::cpu);
+  reference.render(mesh, cam, *rays, {}, expected);
+  ViewRenderer cpu(rays, DeviceKind::cpu);
+  cpu.render(mesh, cam, {}, on_cpu);
+  EXPECT_FALSE(cpu.on_device());
   EXPECT_EQ(on_cpu.triangle, expected.triangle);
   EXPECT_EQ(on_cpu.b1, expected.b1);
   EXPECT_EQ(on_cpu.b2, expected.b2);
   PG_REQUIRE_OPENCL();
   RenderBuffers on_device;
-  render(renderer, mesh, cam, rays, {}, on_device, DeviceKind::opencl);
+  ViewRenderer device(rays, DeviceKind::opencl);
+  device.render(mesh, cam, {}, on_device);
+  EXPECT_TRUE(device.on_device());
   expect_agreement(compare(expected, on_device), std::size_t(cam.width) * cam.height / 4);
 }
 
