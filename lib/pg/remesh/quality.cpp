@@ -163,17 +163,28 @@ nlohmann::ordered_json MeshQuality::to_json() const {
           {"valence_histogram", histogram_json(valence)}};
 }
 
-HausdorffDistance hausdorff_distance(const Mesh& a, const std::vector<bool>& a_faces, const Mesh& b,
-                                     const std::vector<bool>& b_faces, float spacing) {
+namespace {
+
+// hausdorff_distance with the two surfaces' hierarchies given (a_bvh over a, b_bvh over b).
+HausdorffDistance hausdorff_with(const Mesh& a, const std::vector<bool>& a_faces, const TriangleBvh& a_bvh,
+                                 const Mesh& b, const std::vector<bool>& b_faces, const TriangleBvh& b_bvh,
+                                 float spacing) {
   std::vector<Eigen::Vector3f> a_points, b_points;
   sample_faces(a, a_faces, spacing, a_points);
   sample_faces(b, b_faces, spacing, b_points);
   HausdorffDistance h;
-  h.a_to_b = a_points.empty() ? 0.0 : max_distance(a_points, TriangleBvh(b));
-  h.b_to_a = b_points.empty() ? 0.0 : max_distance(b_points, TriangleBvh(a));
+  h.a_to_b = a_points.empty() ? 0.0 : max_distance(a_points, b_bvh);
+  h.b_to_a = b_points.empty() ? 0.0 : max_distance(b_points, a_bvh);
   h.distance = std::max(h.a_to_b, h.b_to_a);
   h.samples = a_points.size() + b_points.size();
   return h;
+}
+
+}  // namespace
+
+HausdorffDistance hausdorff_distance(const Mesh& a, const std::vector<bool>& a_faces, const Mesh& b,
+                                     const std::vector<bool>& b_faces, float spacing) {
+  return hausdorff_with(a, a_faces, TriangleBvh(a), b, b_faces, TriangleBvh(b), spacing);
 }
 
 std::vector<bool> smooth_vertices(const Mesh& mesh, float length, float radius_factor) {
@@ -222,7 +233,8 @@ SmoothRegionHausdorff smooth_region_hausdorff(const Mesh& output, const Mesh& in
       faces_within(output, std::vector<bool>(closest_is_smooth.begin(), closest_is_smooth.end()));
   // An empty selection would mean every face.
   if (std::find(output_faces.begin(), output_faces.end(), true) == output_faces.end()) return result;
-  result.hausdorff = hausdorff_distance(output, output_faces, input, smooth_faces, spacing);
+  result.hausdorff =
+      hausdorff_with(output, output_faces, TriangleBvh(output), input, smooth_faces, input_bvh, spacing);
   return result;
 }
 
