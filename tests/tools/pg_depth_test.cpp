@@ -85,6 +85,31 @@ TEST(PgDepth, ExplicitPairRangeScaleAndKeepAll) {
   EXPECT_EQ(map.camera.width, 160);
 }
 
+// --search-range starts from the discrete search, --fill-occlusions keeps the pixels hidden in the
+// other view with their line's background: more valid pixels, still accurate, the filled share
+// reported; filling needs the epipolar mode.
+TEST(PgDepth, SearchAndFilledOcclusions) {
+  Shot shot;
+  const fs::path out = shot.dir / "f";
+  const std::string cameras = (shot.dir / "cameras.json").string();
+  const auto result = run_tool("pg-depth", {"--cameras", cameras, "--out-dir", out.string(), "--pair",
+                                            "view_0:view_1", "--search-range", "0.1", "--fill-occlusions",
+                                            "--report", (shot.dir / "report.json").string()});
+  ASSERT_EQ(result.exit_code, 0) << result.stderr_text;
+  const auto report = nlohmann::json::parse(pg::testing::read_text(shot.dir / "report.json"));
+  const std::string text = report.dump();
+  EXPECT_NE(text.find("filled_fraction"), std::string::npos);
+  double coverage = 0;
+  EXPECT_LT(
+      median_relative_error(pg::read_depth_exr(out / "view_0-view_1.exr").depth, shot.depths[0], coverage),
+      0.005);
+  EXPECT_GT(coverage, 0.8);
+  const auto free = run_tool(
+      "pg-depth", {"--cameras", cameras, "--out-dir", out.string(), "--mode", "free", "--fill-occlusions"});
+  EXPECT_EQ(free.exit_code, 2);
+  EXPECT_NE(free.stderr_text.find("epipolar"), std::string::npos);
+}
+
 TEST(PgDepth, BadInputsGiveClearErrors) {
   Shot shot;
   const std::string cameras = (shot.dir / "cameras.json").string(), out = (shot.dir / "o").string();

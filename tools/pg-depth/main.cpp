@@ -26,8 +26,9 @@ namespace {
 struct Options {
   std::string cameras, out_dir, masks, range, preset = "balanced", mode = "epipolar";
   std::vector<std::string> pairs;
-  double scale = 1.0, alpha = 0, pyramid_factor = 0, clg_rho = 0;
-  bool keep_all = false, ply = false, mesh = false, preview = false, flow_png = false;
+  double scale = 1.0, alpha = 0, pyramid_factor = 0, clg_rho = 0, search_range = 0;
+  bool keep_all = false, fill_occlusions = false, ply = false, mesh = false, preview = false,
+       flow_png = false;
   pg::DepthFilterOptions filter;
 };
 
@@ -109,11 +110,13 @@ pg::DepthPairOptions pair_options(const Options& o) {
   if (o.alpha > 0) (o.mode == "epipolar" ? options.flow.epipolar_alpha : options.flow.alpha) = o.alpha;
   if (o.pyramid_factor > 0) options.flow.pyramid_factor = o.pyramid_factor;
   options.flow.clg_rho = o.clg_rho;
+  options.flow.search_range = o.search_range;
   if (o.mode != "epipolar" && o.mode != "free") throw pg::UsageError("--mode must be epipolar or free");
   options.epipolar = o.mode == "epipolar";
   options.scale = o.scale;
   options.filter = o.filter;
   options.filter.keep_all = o.keep_all;
+  options.fill_occlusions = o.fill_occlusions;
   options.check();
   return options;
 }
@@ -142,6 +145,9 @@ int main(int argc, char** argv) {
   app.add_option("--alpha", o.alpha, "flow smoothness weight (default from the preset: 3 epipolar, 8 free)");
   app.add_option("--pyramid-factor", o.pyramid_factor, "size ratio between pyramid levels, in [0.5, 1)");
   app.add_option("--clg", o.clg_rho, "combined local-global data term with this integration sigma (pixels)");
+  app.add_option("--search-range", o.search_range,
+                 "epipolar mode: start from a discrete search along each line within this fraction of the "
+                 "image width (large motions of small structures; 0 = coarse to fine only, the default)");
   app.add_option("--scale", o.scale, "resolution of the computation relative to the images, in (0, 1]");
   app.add_option("--min-angle", o.filter.min_triangulation_angle_deg,
                  "minimum triangulation angle, degrees (1)");
@@ -154,6 +160,9 @@ int main(int argc, char** argv) {
                  "relative depth step marking a discontinuity (0.04)");
   app.add_flag("--keep-all", o.keep_all,
                "keep every triangulated depth; rejections only zero the confidence");
+  app.add_flag("--fill-occlusions", o.fill_occlusions,
+               "epipolar mode: pixels failing the forward-backward check (hidden in the other view) take "
+               "their epipolar line's background depth, at half confidence, instead of being rejected");
   app.add_flag("--ply", o.ply, "also write REF-OTHER.ply: the valid points with normals and colours");
   app.add_flag("--mesh", o.mesh, "also write REF-OTHER-mesh.ply: the mesh of the depth grid");
   app.add_flag("--preview", o.preview, "also write REF-OTHER-depth.png: a colour-mapped depth preview");
@@ -167,7 +176,7 @@ int main(int argc, char** argv) {
     require_memory(o, set, pairs, options);
     frame.output_dir(o.out_dir);
     const fs::path out_dir = o.out_dir;
-    std::size_t valid = 0, total = 0;
+    std::size_t valid = 0, total = 0, filled = 0;
     double flow_seconds = 0, triangulation_seconds = 0;
     for (const PairIds& ids : pairs) {
       pg::DepthPairInput input;
@@ -225,7 +234,9 @@ int main(int argc, char** argv) {
                             ", untriangulated ", r.untriangulated, ", inconsistent ", r.inconsistent,
                             ", small angle ", r.small_angle, ", epipolar ", r.epipolar, ", grazing ",
                             r.grazing, ", discontinuity ", r.discontinuity, ", textureless ", r.textureless));
+      if (options.fill_occlusions) pg::log::info(pg::str(stem, ": ", result.filled, " hidden pixels filled"));
       valid += result.depth.valid;
+      filled += result.filled;
       total += result.depth.map.depth.total();
       flow_seconds += result.flow_seconds;
       triangulation_seconds += result.triangulation_seconds;
@@ -233,6 +244,8 @@ int main(int argc, char** argv) {
     pg::RunReport& report = pg::RunReport::global();
     report.set_metric("pairs", pairs.size());
     report.set_metric("valid_fraction", total > 0 ? static_cast<double>(valid) / total : 0.0);
+    if (options.fill_occlusions)
+      report.set_metric("filled_fraction", total > 0 ? static_cast<double>(filled) / total : 0.0);
     report.add_timing("flow", flow_seconds);
     report.add_timing("triangulation", triangulation_seconds);
   });

@@ -1,6 +1,7 @@
 #include "pg/depth/depth_pair.h"
 
 #include <chrono>
+#include <cmath>
 #include <opencv2/imgproc.hpp>
 
 #include "pg/core/error.h"
@@ -34,6 +35,7 @@ void DepthPairOptions::check() const {
   flow.check();
   filter.check();
   if (!(scale > 0 && scale <= 1)) throw UsageError(str("depth scale ", scale, " is not in (0, 1]"));
+  if (fill_occlusions && !epipolar) throw UsageError("filling occlusions needs the epipolar flow mode");
 }
 
 DepthPairResult compute_depth_pair(const DepthPairInput& input, const DepthPairOptions& options) {
@@ -54,10 +56,25 @@ DepthPairResult compute_depth_pair(const DepthPairInput& input, const DepthPairO
 
   DepthPairResult result;
   const auto flow_start = std::chrono::steady_clock::now();
-  const BidirectionalFlow flow =
-      options.epipolar
-          ? compute_epipolar_flow_bidirectional(ref_image, other_image, reference, other, options.flow)
-          : compute_flow_bidirectional(ref_image, other_image, options.flow);
+  const EpipolarField forward_field = options.epipolar ? epipolar_field(reference, other) : EpipolarField{};
+  BidirectionalFlow flow =
+      options.epipolar ? compute_epipolar_flow_bidirectional(ref_image, other_image, forward_field,
+                                                             epipolar_field(other, reference), options.flow)
+                       : compute_flow_bidirectional(ref_image, other_image, options.flow);
+  if (options.fill_occlusions) {
+    // The depth filter's own consistency rule picks the pixels; filled ones then sit just inside its
+    // limit, which halves their confidence (depth_from_flow).
+    const double max_fb = options.filter.max_fb_error;
+    const cv::Mat1b hidden = occlusion_mask(flow.fb_error, flow.forward, max_fb, 0.02);
+    flow.forward = fill_occlusions_along_lines(flow.forward, hidden, forward_field);
+    for (int y = 0; y < hidden.rows; ++y)
+      for (int x = 0; x < hidden.cols; ++x) {
+        if (hidden(y, x) == 0) continue;
+        const cv::Vec2f f = flow.forward(y, x);
+        flow.fb_error(y, x) = static_cast<float>((max_fb + 0.02 * std::hypot(f[0], f[1])) * (1 - 1e-5));
+      }
+    result.filled = static_cast<std::size_t>(cv::countNonZero(hidden));
+  }
   result.flow_seconds = seconds_since(flow_start);
 
   const auto triangulation_start = std::chrono::steady_clock::now();

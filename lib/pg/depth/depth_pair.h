@@ -12,6 +12,11 @@ struct DepthPairOptions {
   FlowOptions flow;
   bool epipolar = true;  // constrain the flow to epipolar lines (static scenes; faster and more robust)
   double scale = 1.0;    // resolution of the computation relative to the images, in (0, 1]
+  // Epipolar mode: pixels failing the forward-backward check (by filter.max_fb_error, hidden in the
+  // other view) take the background of their epipolar line (fill_occlusions_along_lines) instead of
+  // being rejected as inconsistent; they pass that check with at most half the confidence of a
+  // consistent pixel, and the other checks still apply.
+  bool fill_occlusions = false;
   DepthFilterOptions filter;
   void check() const;  // throws UsageError
 };
@@ -24,7 +29,8 @@ struct DepthPairInput {
 
 struct DepthPairResult {
   DepthFromFlowResult depth;  // at scale x the reference camera's resolution
-  cv::Mat2f flow;             // forward flow at that resolution
+  cv::Mat2f flow;             // forward flow at that resolution (filled where fill_occlusions filled it)
+  std::size_t filled = 0;     // pixels fill_occlusions filled
   double flow_seconds = 0, triangulation_seconds = 0;
 };
 

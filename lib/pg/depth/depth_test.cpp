@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "pg/core/error.h"
 #include "pg/depth/depth_geometry.h"
@@ -41,7 +42,7 @@ cv::Mat1b visible_in(const pg::Camera& a, const cv::Mat1f& depth_a, const pg::Ca
   return visible;
 }
 
-pg::DepthPairResult run(bool epipolar, bool keep_all = false) {
+pg::DepthPairResult run(bool epipolar, bool keep_all = false, bool fill_occlusions = false) {
   pg::DepthPairInput input;
   input.reference = scene().left;
   input.other = scene().right;
@@ -50,6 +51,7 @@ pg::DepthPairResult run(bool epipolar, bool keep_all = false) {
   pg::DepthPairOptions options;
   options.epipolar = epipolar;
   options.filter.keep_all = keep_all;
+  options.fill_occlusions = fill_occlusions;
   return pg::compute_depth_pair(input, options);
 }
 
@@ -108,6 +110,34 @@ TEST(DepthPair, KeepAllKeepsRejectedDepthsWithZeroConfidence) {
         EXPECT_EQ(all.depth.map.confidence.at<float>(y, x), 0.f);
       }
   EXPECT_GT(kept_rejected, 0u);
+}
+
+// The wall and floor just beside the sphere that the right view cannot see take the depth of the
+// background next to them: close to their true depth, at half confidence; visible pixels keep theirs.
+TEST(DepthPair, FilledOcclusionsTakeTheBackgroundDepth) {
+  const pg::DepthPairResult plain = run(true), filled = run(true, false, true);
+  const cv::Mat1b visible =
+      visible_in(scene().left, scene().left_view.depth, scene().right, scene().right_view.depth);
+  std::vector<double> errors;
+  for (int y = 0; y < visible.rows; ++y)
+    for (int x = 0; x < visible.cols; ++x) {
+      const float d = filled.depth.map.depth.at<float>(y, x), truth = scene().left_view.depth(y, x);
+      if (visible(y, x) || !std::isfinite(d) || std::isfinite(plain.depth.map.depth.at<float>(y, x)))
+        continue;
+      errors.push_back(std::abs(d - truth) / truth);
+      EXPECT_LE(filled.depth.map.confidence.at<float>(y, x), 0.5f + 1e-4f);
+    }
+  ASSERT_GT(errors.size(), 200u);  // the sphere hides a crescent of the wall from the right view
+  std::sort(errors.begin(), errors.end());
+  ::testing::Test::RecordProperty("filled_median_relative_error", std::to_string(errors[errors.size() / 2]));
+  EXPECT_LT(errors[errors.size() / 2], 0.03);
+  EXPECT_GT(filled.filled, errors.size());
+  EXPECT_GT(filled.depth.valid, plain.depth.valid);
+  EXPECT_LT(accuracy(filled.depth.map).median, 0.005);
+  pg::DepthPairOptions free_fill;
+  free_fill.epipolar = false;
+  free_fill.fill_occlusions = true;
+  EXPECT_THROW(free_fill.check(), pg::UsageError);
 }
 
 TEST(DepthPair, RejectsCamerasWithoutBaselineAndMismatchedImages) {

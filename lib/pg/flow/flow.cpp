@@ -148,6 +148,7 @@ EpipolarFlow compute_epipolar_flow(const cv::Mat& from, const cv::Mat& to, const
   free_options.check();
   FlowOptions options = free_options;
   options.alpha = free_options.epipolar_alpha;
+  options.edge_weight = free_options.epipolar_edge_weight;
   check_pair(from, to);
   if (field.empty() || field.base.size() != from.size() || field.direction.size() != from.size())
     throw UsageError("flow: the epipolar field's size differs from the images");
@@ -218,11 +219,18 @@ BidirectionalFlow compute_epipolar_flow_bidirectional(const cv::Mat& from, const
     EpipolarField field = epipolar_field(a, b);
     return field.base.size() == size ? field : resize_epipolar_field(field, size);
   };
+  return compute_epipolar_flow_bidirectional(from, to,
+                                             field_at_image_size(from_camera, to_camera, from.size()),
+                                             field_at_image_size(to_camera, from_camera, to.size()), options);
+}
+
+BidirectionalFlow compute_epipolar_flow_bidirectional(const cv::Mat& from, const cv::Mat& to,
+                                                      const EpipolarField& forward,
+                                                      const EpipolarField& backward,
+                                                      const FlowOptions& options) {
   BidirectionalFlow result;
-  result.forward =
-      compute_epipolar_flow(from, to, field_at_image_size(from_camera, to_camera, from.size()), options).flow;
-  result.backward =
-      compute_epipolar_flow(to, from, field_at_image_size(to_camera, from_camera, to.size()), options).flow;
+  result.forward = compute_epipolar_flow(from, to, forward, options).flow;
+  result.backward = compute_epipolar_flow(to, from, backward, options).flow;
   result.fb_error = forward_backward_error(result.forward, result.backward);
   result.occluded = occlusion_mask(result.fb_error, result.forward);
   return result;

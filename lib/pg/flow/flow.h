@@ -21,9 +21,11 @@
 // Epipolar mode (Slesareva, Bruhn & Weickert, DAGM 2005): for a static scene seen by two calibrated
 // cameras, the flow of pixel x is constrained to its epipolar line, w(x) = base(x) + s(x) * dir(x),
 // and the single unknown s (pixels along the line; for a rectified pair, the disparity) is solved
-// with the same energy (smoothness weight epipolar_alpha), the smoothness acting on s. Optionally s
-// starts from a discrete semi-global search along the lines (search_range) instead of coarse to fine. The line field comes from the two cameras
-// (epipolar_field) or from the caller (spherical images, curved lines linearised per pixel).
+// with the same energy (smoothness weights epipolar_alpha and epipolar_edge_weight), the smoothness
+// acting on s. Optionally s starts from a discrete semi-global search along the lines (search_range)
+// instead of coarse to fine. The line field comes from the two cameras (epipolar_field) or from the
+// caller (spherical images, curved lines linearised per pixel). Pixels hidden in the other view can
+// take their line's background afterwards (fill_occlusions_along_lines).
 //
 // Images: any depth (8-bit, 16-bit, float), 1, 3 or 4 channels (colour used jointly, alpha ignored).
 // Intensities are scaled to [0, 1] (8-bit / 255, 16-bit / 65535, float as given; for HDR set hdr_log,
@@ -43,6 +45,9 @@ struct FlowOptions {
   // Smoothness weight of the epipolar mode: one unknown, and real static scenes (Strecha, Middlebury)
   // favour less smoothing than Sintel's rendered motion.
   double epipolar_alpha = 3.0;
+  // Edge weight of the epipolar mode: one unknown along a line follows depth edges more sharply than
+  // free flow does (Middlebury bad-2px with filled occlusions, venus: 2.00% at 5, 1.64% at 20).
+  double epipolar_edge_weight = 20.0;
   double delta = 0.5;            // brightness constancy weight
   double gamma = 5.0;            // gradient constancy weight
   double zeta = 0.0004;          // data-term normalisation, intensity units ([0, 1] scale); 0 = off
@@ -125,6 +130,16 @@ cv::Mat1f forward_backward_error(const cv::Mat2f& forward, const cv::Mat2f& back
 cv::Mat1b occlusion_mask(const cv::Mat1f& fb_error, const cv::Mat2f& forward, double max_error = 1.0,
                          double relative = 0.05);
 
+// Occluded pixels (nonzero in `occluded`) on epipolar lines take the background of their line: the
+// smaller s (the farther point) of the nearest unoccluded pixels found walking from them both ways
+// along their line's direction in `to`, which for the near-parallel views of a stereo pair is the
+// line's direction in `from` too (exactly so for a rectified pair). A pixel hidden in `to` lies behind
+// the nearer surface next to it, so its own surface is the one continuing on its other side. The walk
+// goes at most `max_distance` pixels (0: a quarter of the longer side, at least 64); pixels finding
+// nothing, or without a valid line, keep their flow. Returns the filled flow (base + s * direction).
+cv::Mat2f fill_occlusions_along_lines(const cv::Mat2f& flow, const cv::Mat1b& occluded,
+                                      const EpipolarField& field, int max_distance = 0);
+
 struct BidirectionalFlow {
   cv::Mat2f forward, backward;
   cv::Mat1f fb_error;  // forward_backward_error(forward, backward)
@@ -137,6 +152,14 @@ BidirectionalFlow compute_flow_bidirectional(const cv::Mat& from, const cv::Mat&
 // Forward and backward epipolar flow between two posed cameras' images.
 BidirectionalFlow compute_epipolar_flow_bidirectional(const cv::Mat& from, const cv::Mat& to,
                                                       const Camera& from_camera, const Camera& to_camera,
+                                                      const FlowOptions& options = {});
+// The same along given line fields: `forward` for from -> to, `backward` for to -> from. Dense stereo
+// with every pixel estimated is then fill_occlusions_along_lines(result.forward, mask, forward) with
+// a strict mask, occlusion_mask(result.fb_error, result.forward, 0.25, 0): on Middlebury it fills
+// 12-28% of the pixels and beats both the default mask and no filling (flow_test).
+BidirectionalFlow compute_epipolar_flow_bidirectional(const cv::Mat& from, const cv::Mat& to,
+                                                      const EpipolarField& forward,
+                                                      const EpipolarField& backward,
                                                       const FlowOptions& options = {});
 
 }  // namespace pg

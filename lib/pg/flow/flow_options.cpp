@@ -16,6 +16,7 @@ void FlowOptions::check() const {
   require(zeta >= 0, "zeta", zeta, "must not be negative");
   require(epsilon > 0, "epsilon", epsilon, "must be positive");
   require(edge_weight >= 0, "edge_weight", edge_weight, "must not be negative");
+  require(epipolar_edge_weight >= 0, "epipolar_edge_weight", epipolar_edge_weight, "must not be negative");
   require(clg_rho >= 0 && clg_rho <= 20, "clg_rho", clg_rho, "must be in [0, 20]");
   require(presmooth_sigma >= 0 && presmooth_sigma <= 10, "presmooth_sigma", presmooth_sigma,
           "must be in [0, 10]");

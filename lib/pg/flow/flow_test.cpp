@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <opencv2/imgproc.hpp>
 
 #include "pg/core/error.h"
@@ -147,6 +148,59 @@ TEST(FlowColor, WhiteForNoMotionBlackForUnknownHueForDirection) {
   EXPECT_LT(c(0, 3)[2], 60);
 }
 
+// A rectified row: background at disparity 2, a foreground block at 10 over x in [20, 30), and the
+// background pixels just left of the block hidden in the other view (x in [12, 20)).
+TEST(OcclusionFill, HiddenPixelsTakeTheirLinesBackground) {
+  const cv::Size size(48, 3);
+  const pg::EpipolarField field{cv::Mat2f(size, cv::Vec2f(0, 0)), cv::Mat2f(size, cv::Vec2f(-1, 0))};
+  cv::Mat2f flow(size, cv::Vec2f(-2, 0));
+  cv::Mat1b occluded(size, std::uint8_t{0});
+  for (int y = 0; y < size.height; ++y) {
+    for (int x = 20; x < 30; ++x) flow(y, x) = {-10, 0};
+    for (int x = 12; x < 20; ++x) flow(y, x) = {-7, 0}, occluded(y, x) = 255;  // smoothed across the edge
+  }
+  const cv::Mat2f filled = pg::fill_occlusions_along_lines(flow, occluded, field);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      const float expected = x >= 20 && x < 30 ? -10.f : -2.f;
+      EXPECT_FLOAT_EQ(filled(y, x)[0], expected) << x;
+      EXPECT_FLOAT_EQ(filled(y, x)[1], 0.f);
+    }
+}
+
+// Lines at 45 degrees with a base offset: s is measured from each pixel's base, and the walk follows
+// the line's direction; with every pixel occluded nothing is filled.
+TEST(OcclusionFill, FollowsSlantedLinesAndFillsNothingWithoutABackground) {
+  const cv::Size size(32, 32);
+  const float r = std::sqrt(0.5f);
+  const pg::EpipolarField field{cv::Mat2f(size, cv::Vec2f(1, 0)), cv::Mat2f(size, cv::Vec2f(r, r))};
+  cv::Mat2f flow(size);
+  cv::Mat1b occluded(size, std::uint8_t{0});
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      const float s = x + y < 32 ? 3.f : 6.f;  // the far side of the anti-diagonal is nearer
+      flow(y, x) = cv::Vec2f(1, 0) + s * cv::Vec2f(r, r);
+      if (x + y >= 28 && x + y < 32)
+        flow(y, x) = cv::Vec2f(1, 0) + 5.f * cv::Vec2f(r, r), occluded(y, x) = 255;
+    }
+  occluded(0, 0) = 255;  // one way leaves the image at once, the other finds (1, 1)
+  const cv::Mat2f filled = pg::fill_occlusions_along_lines(flow, occluded, field);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      const float s = (filled(y, x) - cv::Vec2f(1, 0)).dot(cv::Vec2f(r, r));
+      const bool band = x + y >= 28 && x + y < 32;
+      // Band pixels near the top or left edge see no background before their walk leaves the image.
+      if (!band || (x >= 4 && y >= 4)) {
+        EXPECT_NEAR(s, x + y < 32 ? 3.f : 6.f, 1e-5) << x << "," << y;
+      }
+    }
+  EXPECT_NEAR((filled(0, 0) - cv::Vec2f(1, 0)).dot(cv::Vec2f(r, r)), 3.f, 1e-5);  // its neighbour (1, 1)
+  cv::Mat1b all(size, std::uint8_t{255});
+  const cv::Mat2f untouched = pg::fill_occlusions_along_lines(flow, all, field);
+  EXPECT_EQ(cv::norm(untouched, flow, cv::NORM_INF), 0.0);
+  EXPECT_THROW(pg::fill_occlusions_along_lines(flow, cv::Mat1b(4, 4), field), pg::UsageError);
+}
+
 TEST(FlowRealData, SintelAlleyCleanEndPointError) {
   PG_REQUIRE_REAL_DATA(dir, "flow/sintel/clean/alley_1");
   const cv::Mat a = pg::read_image(dir / "frame_0002.png"), b = pg::read_image(dir / "frame_0003.png");
@@ -176,5 +230,60 @@ TEST(FlowRealData, MiddleburyVenusAsEpipolarStereo) {
   RecordProperty("bad_2px", std::to_string(bad_2px));
   EXPECT_LT(bad_2px, 0.07);  // 5.6% measured with the fast preset
 }
+
+// Dense stereo on the four Middlebury pairs: epipolar flow both ways from the discrete search, the
+// pixels whose forward and backward flows disagree by more than 0.25 px (occluded ones and the least
+// certain others, 12-28% of the pixels) filled with their row's background, every pixel scored
+// against the true disparity. Measured: 3.6 / 1.0 / 9.5 / 11.1%. A looser check fills fewer pixels
+// and scores worse (1 px: 4.2 / 1.7 / 10.5 / 11.6%). Bounds: the issue's best OpenCV figures on tsukuba,
+// venus and teddy (StereoSGBM 4.53% and 1.84% over its 84-98% density, teddy 11.52%); aloe, which the issue
+// gives no figure for, below 12% (its best dense OpenCV method, DeepFlow, measures 31% in bench_flow).
+struct StereoPair {
+  const char* name;
+  const char *left, *right, *truth;
+  double truth_scale;  // disparity = stored value / scale
+  double max_bad_2px;  // percent
+};
+
+class MiddleburyDenseStereo : public ::testing::TestWithParam<StereoPair> {};
+
+TEST_P(MiddleburyDenseStereo, BeatsOpenCVsBestWithEveryPixelEstimated) {
+  const StereoPair& c = GetParam();
+  PG_REQUIRE_REAL_DATA(dir, "stereo");
+  const cv::Mat a = pg::read_image(dir / c.left), b = pg::read_image(dir / c.right);
+  cv::Mat1f truth;
+  pg::read_image(dir / c.truth).convertTo(truth, CV_32F, 1.0 / c.truth_scale);
+  // Rectified: nearer points lie further left in the right image, further right in the left one.
+  const pg::EpipolarField forward{cv::Mat2f(a.size(), cv::Vec2f(0, 0)),
+                                  cv::Mat2f(a.size(), cv::Vec2f(-1, 0))};
+  const pg::EpipolarField backward{forward.base, cv::Mat2f(a.size(), cv::Vec2f(1, 0))};
+  pg::FlowOptions options;
+  options.search_range = 0.25;
+  options.search_budget = 1e7;
+  const pg::BidirectionalFlow both =
+      pg::compute_epipolar_flow_bidirectional(a, b, forward, backward, options);
+  const cv::Mat2f flow = pg::fill_occlusions_along_lines(
+      both.forward, pg::occlusion_mask(both.fb_error, both.forward, 0.25, 0.0), forward);
+  std::size_t known = 0, bad = 0;
+  for (int y = 0; y < truth.rows; ++y)
+    for (int x = 0; x < truth.cols; ++x)
+      if (truth(y, x) > 0) ++known, bad += !(std::abs(-flow(y, x)[0] - truth(y, x)) <= 2);
+  const double bad_2px = 100.0 * static_cast<double>(bad) / known;
+  RecordProperty("bad_2px_percent", std::to_string(bad_2px));
+  std::printf("%s: bad-2px %.2f%% over every pixel with known disparity (bound %.2f%%)\n", c.name, bad_2px,
+              c.max_bad_2px);
+  EXPECT_LT(bad_2px, c.max_bad_2px);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    FlowRealData, MiddleburyDenseStereo,
+    ::testing::Values(StereoPair{"tsukuba", "middlebury/tsukuba/im3.png", "middlebury/tsukuba/im4.png",
+                                 "middlebury/tsukuba/disp3.pgm", 16, 4.53},
+                      StereoPair{"venus", "middlebury/venus/im2.png", "middlebury/venus/im6.png",
+                                 "middlebury/venus/disp2.pgm", 8, 1.84},
+                      StereoPair{"teddy", "middlebury/teddy/im2.png", "middlebury/teddy/im6.png",
+                                 "middlebury/teddy/disp2.png", 4, 11.52},
+                      StereoPair{"aloe", "aloe/aloeL.jpg", "aloe/aloeR.jpg", "aloe/aloeGT.png", 1, 12.0}),
+    [](const ::testing::TestParamInfo<StereoPair>& info) { return std::string(info.param.name); });
 
 }  // namespace
