@@ -210,8 +210,10 @@ TEST(FlowRealData, SintelAlleyCleanEndPointError) {
       pg::evaluate_flow(pg::compute_flow(a, b, pg::FlowOptions::preset("fast")),
                         pg::read_flo(dir / "gt/frame_0002.flo"), &occlusion, &invalid);
   RecordProperty("epe_all", std::to_string(r.epe_all));
-  EXPECT_LT(r.epe_all, 0.40);  // the fast preset; the benchmark reports the others against OpenCV
-  EXPECT_LT(r.epe_non_occluded, 0.33);
+  // The fast preset (1.6x the time of OpenCV's DIS + VariationalRefinement at 1536x1024 in bench_flow)
+  // is more accurate than it: DIS + VariationalRefinement measures 0.295 here, fast 0.234.
+  EXPECT_LT(r.epe_all, 0.28);
+  EXPECT_LT(r.epe_non_occluded, 0.22);
   EXPECT_EQ(r.coverage, 1.0);
 }
 
@@ -241,49 +243,67 @@ TEST(FlowRealData, MiddleburyVenusAsEpipolarStereo) {
 struct StereoPair {
   const char* name;
   const char *left, *right, *truth;
-  double truth_scale;  // disparity = stored value / scale
-  double max_bad_2px;  // percent
+  double truth_scale;       // disparity = stored value / scale
+  double max_bad_2px;       // percent, the balanced preset
+  double max_bad_2px_fast;  // percent, the fast preset: DIS + VariationalRefinement's figure in bench_flow
 };
 
-class MiddleburyDenseStereo : public ::testing::TestWithParam<StereoPair> {};
+class MiddleburyDenseStereo : public ::testing::TestWithParam<StereoPair> {
+ protected:
+  // bad-2px (percent) of the dense stereo recipe with `options` over every pixel with known disparity.
+  static double bad_2px(const StereoPair& c, const std::filesystem::path& dir, pg::FlowOptions options) {
+    const cv::Mat a = pg::read_image(dir / c.left), b = pg::read_image(dir / c.right);
+    cv::Mat1f truth;
+    pg::read_image(dir / c.truth).convertTo(truth, CV_32F, 1.0 / c.truth_scale);
+    // Rectified: nearer points lie further left in the right image, further right in the left one.
+    const pg::EpipolarField forward{cv::Mat2f(a.size(), cv::Vec2f(0, 0)),
+                                    cv::Mat2f(a.size(), cv::Vec2f(-1, 0))};
+    const pg::EpipolarField backward{forward.base, cv::Mat2f(a.size(), cv::Vec2f(1, 0))};
+    options.search_range = 0.25;
+    options.search_budget = 1e7;
+    const pg::BidirectionalFlow both =
+        pg::compute_epipolar_flow_bidirectional(a, b, forward, backward, options);
+    const cv::Mat2f flow = pg::fill_occlusions_along_lines(
+        both.forward, pg::occlusion_mask(both.fb_error, both.forward, 0.25, 0.0), forward);
+    std::size_t known = 0, bad = 0;
+    for (int y = 0; y < truth.rows; ++y)
+      for (int x = 0; x < truth.cols; ++x)
+        if (truth(y, x) > 0) ++known, bad += !(std::abs(-flow(y, x)[0] - truth(y, x)) <= 2);
+    return 100.0 * static_cast<double>(bad) / known;
+  }
+};
 
 TEST_P(MiddleburyDenseStereo, BeatsOpenCVsBestWithEveryPixelEstimated) {
   const StereoPair& c = GetParam();
   PG_REQUIRE_REAL_DATA(dir, "stereo");
-  const cv::Mat a = pg::read_image(dir / c.left), b = pg::read_image(dir / c.right);
-  cv::Mat1f truth;
-  pg::read_image(dir / c.truth).convertTo(truth, CV_32F, 1.0 / c.truth_scale);
-  // Rectified: nearer points lie further left in the right image, further right in the left one.
-  const pg::EpipolarField forward{cv::Mat2f(a.size(), cv::Vec2f(0, 0)),
-                                  cv::Mat2f(a.size(), cv::Vec2f(-1, 0))};
-  const pg::EpipolarField backward{forward.base, cv::Mat2f(a.size(), cv::Vec2f(1, 0))};
-  pg::FlowOptions options;
-  options.search_range = 0.25;
-  options.search_budget = 1e7;
-  const pg::BidirectionalFlow both =
-      pg::compute_epipolar_flow_bidirectional(a, b, forward, backward, options);
-  const cv::Mat2f flow = pg::fill_occlusions_along_lines(
-      both.forward, pg::occlusion_mask(both.fb_error, both.forward, 0.25, 0.0), forward);
-  std::size_t known = 0, bad = 0;
-  for (int y = 0; y < truth.rows; ++y)
-    for (int x = 0; x < truth.cols; ++x)
-      if (truth(y, x) > 0) ++known, bad += !(std::abs(-flow(y, x)[0] - truth(y, x)) <= 2);
-  const double bad_2px = 100.0 * static_cast<double>(bad) / known;
-  RecordProperty("bad_2px_percent", std::to_string(bad_2px));
-  std::printf("%s: bad-2px %.2f%% over every pixel with known disparity (bound %.2f%%)\n", c.name, bad_2px,
+  const double bad = bad_2px(c, dir, pg::FlowOptions::preset("balanced"));
+  RecordProperty("bad_2px_percent", std::to_string(bad));
+  std::printf("%s: bad-2px %.2f%% over every pixel with known disparity (bound %.2f%%)\n", c.name, bad,
               c.max_bad_2px);
-  EXPECT_LT(bad_2px, c.max_bad_2px);
+  EXPECT_LT(bad, c.max_bad_2px);
+}
+
+// The fast preset, within 2x of DIS + VariationalRefinement's time, is more accurate than it here too
+// (measured 4.4 / 1.3 / 10.2 / 12.6%).
+TEST_P(MiddleburyDenseStereo, FastPresetBeatsDisVariationalRefinement) {
+  const StereoPair& c = GetParam();
+  PG_REQUIRE_REAL_DATA(dir, "stereo");
+  const double bad = bad_2px(c, dir, pg::FlowOptions::preset("fast"));
+  RecordProperty("bad_2px_percent", std::to_string(bad));
+  std::printf("%s, fast: bad-2px %.2f%% (bound %.2f%%)\n", c.name, bad, c.max_bad_2px_fast);
+  EXPECT_LT(bad, c.max_bad_2px_fast);
 }
 
 INSTANTIATE_TEST_SUITE_P(
     FlowRealData, MiddleburyDenseStereo,
     ::testing::Values(StereoPair{"tsukuba", "middlebury/tsukuba/im3.png", "middlebury/tsukuba/im4.png",
-                                 "middlebury/tsukuba/disp3.pgm", 16, 4.53},
+                                 "middlebury/tsukuba/disp3.pgm", 16, 4.53, 5.97},
                       StereoPair{"venus", "middlebury/venus/im2.png", "middlebury/venus/im6.png",
-                                 "middlebury/venus/disp2.pgm", 8, 1.84},
+                                 "middlebury/venus/disp2.pgm", 8, 1.84, 3.43},
                       StereoPair{"teddy", "middlebury/teddy/im2.png", "middlebury/teddy/im6.png",
-                                 "middlebury/teddy/disp2.png", 4, 11.52},
-                      StereoPair{"aloe", "aloe/aloeL.jpg", "aloe/aloeR.jpg", "aloe/aloeGT.png", 1, 12.0}),
+                                 "middlebury/teddy/disp2.png", 4, 11.52, 18.01},
+                      StereoPair{"aloe", "aloe/aloeL.jpg", "aloe/aloeR.jpg", "aloe/aloeGT.png", 1, 12.0,
+                                 38.2}),
     [](const ::testing::TestParamInfo<StereoPair>& info) { return std::string(info.param.name); });
 
 }  // namespace
