@@ -360,8 +360,8 @@ void bench_speed(const fs::path& data) {
     for (const char* preset : {"fast", "balanced"})
       if (from && to)
         methods.push_back({std::string("pg epipolar ") + preset + " (true cameras)",
-                           [=](const Pair& p) {
-                             return pg::compute_epipolar_flow(p.from, p.to, pg::epipolar_field(*from, *to),
+                           [preset, from = *from, to = *to](const Pair& p) {  // copies: `cameras` ends here
+                             return pg::compute_epipolar_flow(p.from, p.to, pg::epipolar_field(from, to),
                                                               pg::FlowOptions::preset(preset))
                                  .flow;
                            },
