@@ -240,8 +240,7 @@ pg::EpipolarField rectified_field(cv::Size size, float direction = -1) {
 // more than 0.25 px filled with their row's background (the recipe of flow_test's
 // MiddleburyDenseStereo).
 cv::Mat2f dense_stereo(const Pair& pair, pg::FlowOptions options) {
-  options.search_range = 0.25;
-  options.search_budget = 1e7;
+  if (options.search_range == 0) options.search_range = 0.25;  // else as given
   const pg::EpipolarField forward = rectified_field(pair.from.size());
   const pg::BidirectionalFlow both = pg::compute_epipolar_flow_bidirectional(
       pair.from, pair.to, forward, rectified_field(pair.from.size(), 1), options);
