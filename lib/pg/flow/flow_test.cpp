@@ -240,8 +240,8 @@ TEST(FlowRealData, MiddleburyVenusAsEpipolarStereo) {
 // and scores worse (1 px: 4.2 / 1.7 / 10.5 / 11.6% with a coarser search). Bounds: the issue's best
 // OpenCV figures on tsukuba, venus and teddy (StereoSGBM 4.53% and 1.84% over its 84-98% density,
 // teddy 11.52%); aloe, which the issue gives no figure for, below 12% (its best dense OpenCV method,
-// DeepFlow, measures 31% in bench_flow; StereoSGBM with its holes filled the same way, 4.7 / 2.7 /
-// 15.6% on the other three).
+// DeepFlow, measures 31% in bench_flow). StereoSGBM with its holes filled the same way measures
+// 4.7 / 2.7 / 15.6 / 16.2%.
 struct StereoPair {
   const char* name;
   const char *left, *right, *truth;
