@@ -55,9 +55,10 @@ class TsdfVolume {
   // both, as if all their inputs had been integrated into one volume.
   void merge_partial(const TsdfVolume& partial);
 
-  // The zero level set as triangles, only in cells whose zero crossings all lie between observed
-  // voxels. Adds the vertex property "confidence" (accumulated weight, trilinear over the observed
-  // voxels of the cell) and colours when the volume has them.
+  // The zero level set as triangles, only across grid edges whose two voxels are observed and whose
+  // distances differ by at most 1.5 truncations (elsewhere a crossing is the back of a frame's band).
+  // Adds the vertex property "confidence" (accumulated weight, trilinear over the observed voxels of
+  // the cell) and colours when the volume has them.
   Mesh extract_mesh(const ExtractOptions& options = {}) const;
 
   // Grids "surface" (level set, scene units), "weight", and with colour "Cd" (linear [0, 1] RGB of
