@@ -3,6 +3,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <limits>
 #include <mutex>
 
 #include "pg/core/error.h"
@@ -20,15 +21,28 @@ constexpr int leaf_voxels = openvdb::FloatTree::LeafNodeType::SIZE;  // 512
 // Marks the leaves that a segment of rays touches, one thread-local tree per worker, then unites them.
 class LeafCollector {
  public:
-  explicit LeafCollector(double voxel_size) : inverse_voxel_(1.0 / voxel_size), step_(voxel_size) {}
+  explicit LeafCollector(double voxel_size) : inverse_voxel_(1.0 / voxel_size) {}
 
-  // Marks the leaves of the voxels along from + t * direction, t in [t0, t1] (direction unit).
+  // Marks the leaves of the voxels along from + t * direction, t in [t0, t1] (direction unit), sampled
+  // a voxel apart and at t1: the voxels nearest_voxel gives at those points. This runs for every
+  // pixel's band, so it steps in voxel units and floors by truncation from a positive offset (valid
+  // within 2^30 voxels of the origin), where std::floor is a slow call on baseline x86-64.
   void touch_segment(const Eigen::Vector3d& from, const Eigen::Vector3d& direction, double t0, double t1) {
     auto& accessor = accessors_.local();
-    for (double t = t0;; t += step_) {
-      const double tt = std::min(t, t1);
-      accessor.touchLeaf(nearest_voxel(from + direction * tt, inverse_voxel_));
-      if (tt >= t1) break;
+    constexpr double offset = 1 << 30;
+    const Eigen::Vector3d start =
+        (from + direction * t0) * inverse_voxel_ + Eigen::Vector3d::Constant(0.5 + offset);
+    const Eigen::Vector3d end =
+        (from + direction * t1) * inverse_voxel_ + Eigen::Vector3d::Constant(0.5 + offset);
+    const auto floor_int = [](double v) { return int(std::int64_t(v) - std::int64_t(offset)); };
+    const int steps = int(std::ceil((t1 - t0) * inverse_voxel_));
+    Coord last_leaf(std::numeric_limits<int>::max());
+    for (int k = 0; k <= steps; ++k) {
+      const Eigen::Vector3d p = k < steps ? Eigen::Vector3d(start + direction * double(k)) : end;
+      const Coord voxel(floor_int(p.x()), floor_int(p.y()), floor_int(p.z()));
+      // Consecutive steps mostly stay in one 8^3 leaf: mark each leaf once.
+      const Coord leaf(voxel.x() & ~7, voxel.y() & ~7, voxel.z() & ~7);
+      if (leaf != last_leaf) accessor.touchLeaf(voxel), last_leaf = leaf;
     }
   }
 
@@ -49,7 +63,7 @@ class LeafCollector {
     openvdb::tree::ValueAccessor<MaskTree> accessor{*tree};
     void touchLeaf(const Coord& c) { accessor.setValueOn(c); }
   };
-  double inverse_voxel_, step_;
+  double inverse_voxel_;
   tbb::enumerable_thread_specific<Local> accessors_;
 };
 
