@@ -71,10 +71,10 @@ TEST(RealData, KinectFramesMergeIntoAMeshTheDepthAgreesWith) {
             << fraction * 100 << "% of depth pixels within 2 voxels of the mesh\n";
   EXPECT_GT(merged.face_count(), 50000u);
   // Kinect noise at 2-3 m is of the order of 2 voxels, and the five poses agree only roughly with
-  // each other. Measured 82% (Open3D's ScalableTSDFVolume: 78.1% in bench_merge, without removing
-  // small pieces; 68% when this test was written, 75.7% before the extraction kept quads by their
-  // own grid edge).
-  EXPECT_GT(fraction, 0.79);
+  // each other. Measured 79.2% with small pieces removed (bench_merge, without: pg 80.5%, Open3D's
+  // ScalableTSDFVolume 78.1%; 68% when this test was written, 75.7% before the extraction kept quads
+  // by their own grid edge).
+  EXPECT_GT(fraction, 0.78);
 }
 
 }  // namespace

@@ -116,6 +116,36 @@ TEST(Tsdf, ThinPartsSeenAtGrazingAnglesKeepTheirThickness) {
   EXPECT_GT(eval.recall[0], 0.9);
 }
 
+// One frame of a floor lying on a voxel layer: the surface covers the frame's footprint but for the
+// last voxel at its edges, exactly on the floor, and nothing is extracted at the back of the band. At
+// the footprint's edge the cells holding the floor also cross towards voxels the frame never saw:
+// extraction keeps each quad by its own grid edge and places the vertex by the measured crossings
+// (asking every crossing of a vertex's cell to be measured covered 86% of the footprint; without
+// the placement, the edge's vertices sat 0.7 voxels below the floor; before vertices on a cell's face
+// were given their own cell, the floor on a voxel layer covered 33%).
+TEST(Tsdf, OneFrameOfAFloorCoversItsFootprintAndNothingBehind) {
+  const double voxel = 0.05;
+  const Mesh floor = testing::ground(4.0f, 8);
+  const TriangleBvh bvh(floor);
+  const Camera camera = testing::pinhole_camera(64, 48, 60, {0.3, 0.2, 2.0}, {0.3, 0.2, 0.0});
+  TsdfVolume volume({.voxel_size = voxel});
+  volume.integrate(make_depth_frame(render_depth(bvh, camera), "floor", {}));
+  const Mesh merged = volume.extract_mesh();
+  double area = 0, farthest = 0;
+  for (const auto& f : merged.faces) {
+    const Eigen::Vector3f a = merged.positions[f[0]], b = merged.positions[f[1]], c = merged.positions[f[2]];
+    area += 0.5 * (b - a).cross(c - a).norm();
+    for (const Eigen::Vector3f* p : {&a, &b, &c}) farthest = std::max(farthest, double(std::abs(p->z())));
+  }
+  // The footprint of pixel edges [-0.5, 63.5] x [-0.5, 47.5] at 2 m.
+  const double footprint = (64 * 2.0 / 60) * (48 * 2.0 / 60);
+  std::cout << "floor, one frame: mesh area " << area / footprint << " of the footprint, farthest vertex "
+            << farthest / voxel << " voxels off the floor\n";
+  EXPECT_GT(area / footprint, 0.88);  // measured 0.89
+  EXPECT_LT(area / footprint, 1.0);
+  EXPECT_LT(farthest, 0.01 * voxel);
+}
+
 TEST(Tsdf, PartialVolumesCombineToTheSingleRun) {
   const double voxel = 0.04;
   const auto frames = frames_of(set_scene(), orbit(6, 3.0, 1.8, {0, 0, 0.2}, 96, 72, 85));
