@@ -20,33 +20,67 @@ constexpr int leaf_voxels = openvdb::FloatTree::LeafNodeType::SIZE;  // 512
 
 // Marks the leaves that a segment of rays touches, one thread-local tree per worker, then unites them.
 class LeafCollector {
+  struct Local {
+    std::unique_ptr<MaskTree> tree = std::make_unique<MaskTree>();
+    openvdb::tree::ValueAccessor<MaskTree> accessor{*tree};
+    void touchLeaf(const Coord& c) { accessor.setValueOn(c); }
+  };
+
  public:
   explicit LeafCollector(double voxel_size) : inverse_voxel_(1.0 / voxel_size) {}
 
-  // Marks the leaves of the voxels along from + t * direction, t in [t0, t1] (direction unit), sampled
-  // a voxel apart and at t1: the voxels nearest_voxel gives at those points. This runs for every
-  // pixel's band, so it steps in voxel units and floors by truncation from a positive offset (valid
-  // within 2^30 voxels of the origin), where std::floor is a slow call on baseline x86-64.
-  void touch_segment(const Eigen::Vector3d& from, const Eigen::Vector3d& direction, double t0, double t1) {
-    auto& accessor = accessors_.local();
-    constexpr double offset = 1 << 30;
-    const Eigen::Vector3d start =
-        (from + direction * t0) * inverse_voxel_ + Eigen::Vector3d::Constant(0.5 + offset);
-    const Eigen::Vector3d end =
-        (from + direction * t1) * inverse_voxel_ + Eigen::Vector3d::Constant(0.5 + offset);
-    const auto floor_int = [](double v) { return int(std::int64_t(v) - std::int64_t(offset)); };
-    const int steps = int(std::ceil((t1 - t0) * inverse_voxel_));
-    Coord last_leaf(std::numeric_limits<int>::max());
-    for (int k = 0; k <= steps; ++k) {
-      const Eigen::Vector3d p = k < steps ? Eigen::Vector3d(start + direction * double(k)) : end;
-      const Coord voxel(floor_int(p.x()), floor_int(p.y()), floor_int(p.z()));
-      // Consecutive steps mostly stay in one 8^3 leaf: mark each leaf once.
-      const Coord leaf(voxel.x() & ~7, voxel.y() & ~7, voxel.z() & ~7);
-      if (leaf != last_leaf) accessor.touchLeaf(voxel), last_leaf = leaf;
-    }
-  }
+  // The marks of one worker thread: take one per task (finding the thread's tree is a table lookup,
+  // too slow to repeat for every pixel).
+  class Marker {
+   public:
+    Marker(Local& local, double inverse_voxel) : accessor(local), inverse_voxel_(inverse_voxel) {}
 
-  void touch_voxel(const Coord& voxel) { accessors_.local().touchLeaf(voxel); }
+    // Marks every leaf holding the voxel nearest to some point of from + t * direction, t in [t0, t1]
+    // (direction unit). In shifted voxel units q = p / voxel + 1/2 that voxel is floor(q) and its leaf
+    // floor(q / 8): the walk visits the leaf cells the segment crosses (Amanatides & Woo 1987), two or
+    // three per pixel's band instead of a sample per voxel.
+    void touch_segment(const Eigen::Vector3d& from, const Eigen::Vector3d& direction, double t0, double t1) {
+      constexpr double leaf_dim = 8;
+      const Eigen::Vector3d a =
+          ((from + direction * t0) * inverse_voxel_ + Eigen::Vector3d::Constant(0.5)) / leaf_dim;
+      const Eigen::Vector3d b =
+          ((from + direction * t1) * inverse_voxel_ + Eigen::Vector3d::Constant(0.5)) / leaf_dim;
+      const Eigen::Vector3d d = b - a;
+      // floor by truncation from a positive offset (std::floor is a call on baseline x86-64): valid
+      // within 2^30 leaves of the origin.
+      const auto floor_int = [](double v) { return int(std::int64_t(v + 0x1p30) - (std::int64_t(1) << 30)); };
+      Coord cell, last;
+      int step[3];
+      double next[3],
+          delta[3];  // segment parameter in [0, 1] of the next boundary on each axis, and its period
+      int crossings = 0;
+      for (int k = 0; k < 3; ++k) {
+        cell[k] = floor_int(a[k]);
+        last[k] = floor_int(b[k]);
+        crossings += std::abs(last[k] - cell[k]);
+        step[k] = d[k] > 0 ? 1 : -1;
+        delta[k] = d[k] != 0 ? std::abs(1.0 / d[k]) : std::numeric_limits<double>::infinity();
+        next[k] = d[k] != 0 ? (cell[k] + (d[k] > 0 ? 1 : 0) - a[k]) / d[k]
+                            : std::numeric_limits<double>::infinity();
+      }
+      const auto touch = [&] { accessor.touchLeaf(Coord(cell.x() * 8, cell.y() * 8, cell.z() * 8)); };
+      touch();
+      for (int n = 0; n < crossings; ++n) {
+        const int k = next[0] <= next[1] ? (next[0] <= next[2] ? 0 : 2) : (next[1] <= next[2] ? 1 : 2);
+        cell[k] += step[k];
+        next[k] += delta[k];
+        touch();
+      }
+    }
+
+    void touch_voxel(const Coord& voxel) { accessor.touchLeaf(voxel); }
+
+   private:
+    Local& accessor;
+    double inverse_voxel_;
+  };
+
+  Marker marker() { return Marker(accessors_.local(), inverse_voxel_); }
 
   std::vector<Coord> leaf_origins() {
     MaskTree all;
@@ -58,11 +92,6 @@ class LeafCollector {
   }
 
  private:
-  struct Local {
-    std::unique_ptr<MaskTree> tree = std::make_unique<MaskTree>();
-    openvdb::tree::ValueAccessor<MaskTree> accessor{*tree};
-    void touchLeaf(const Coord& c) { accessor.setValueOn(c); }
-  };
   double inverse_voxel_;
   tbb::enumerable_thread_specific<Local> accessors_;
 };
@@ -97,9 +126,13 @@ struct FrameProjector {
     } else if (!frame.camera.project(p, pixel)) {
       return false;
     }
-    px = int(std::floor(pixel.x() + 0.5));
-    py = int(std::floor(pixel.y() + 0.5));
-    if (px < 0 || py < 0 || px >= frame.depth.cols || py >= frame.depth.rows) return false;
+    // Pixel (px, py) covers [px - 1/2, px + 1/2): inside the image its rounding is the truncation of a
+    // positive number (std::floor is a call on baseline x86-64, and this runs for every voxel).
+    if (!(pixel.x() >= -0.5 && pixel.y() >= -0.5 && pixel.x() < frame.depth.cols - 0.5 &&
+          pixel.y() < frame.depth.rows - 0.5))
+      return false;
+    px = int(pixel.x() + 0.5);
+    py = int(pixel.y() + 0.5);
     if (!(frame.weight(py, px) > 0)) return false;
     const float d = frame.depth(py, px);
     if (!std::isfinite(d)) return false;
@@ -366,14 +399,15 @@ void TsdfVolume::integrate(const DepthFrame& frame) {
 
   LeafCollector collector(voxel);
   tbb::parallel_for(tbb::blocked_range<int>(0, frame.depth.rows), [&](const tbb::blocked_range<int>& rows) {
+    LeafCollector::Marker marker = collector.marker();
     for (int y = rows.begin(); y < rows.end(); ++y)
       for (int x = 0; x < frame.depth.cols; ++x) {
         const float d = frame.depth(y, x);
         if (!(frame.weight(y, x) > 0) || !std::isfinite(d)) continue;
         const Eigen::Vector3d ray = frame.camera.unproject(Eigen::Vector2d(x, y));
         const double range = frame.kind == DepthKind::perspective_z ? d / ray.z() : d;
-        collector.touch_segment(centre, world_rotation * ray, std::max(0.0, range - truncation),
-                                range + truncation);
+        marker.touch_segment(centre, world_rotation * ray, std::max(0.0, range - truncation),
+                             range + truncation);
       }
   });
   const std::vector<Coord> origins = collector.leaf_origins();
@@ -428,6 +462,7 @@ void TsdfVolume::integrate(const ScanSurface& scan) {
   LeafCollector collector(voxel);
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, mesh.faces.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+        LeafCollector::Marker marker = collector.marker();
         for (std::size_t f = r.begin(); f < r.end(); ++f) {
           const Eigen::Vector3d a = mesh.positions[mesh.faces[f][0]].cast<double>();
           const Eigen::Vector3d b = mesh.positions[mesh.faces[f][1]].cast<double>();
@@ -438,7 +473,7 @@ void TsdfVolume::integrate(const ScanSurface& scan) {
             for (int j = 0; i + j <= steps; ++j) {
               const Eigen::Vector3d p = a + (b - a) * (double(i) / steps) + (c - a) * (double(j) / steps);
               const Eigen::Vector3d direction = ray_direction(p);
-              collector.touch_segment(p, direction, -truncation, truncation);
+              marker.touch_segment(p, direction, -truncation, truncation);
             }
         }
       });
@@ -496,6 +531,7 @@ void TsdfVolume::integrate(const ScanPoints& scan) {
   std::vector<std::uint8_t> used(count, 0);
   LeafCollector collector(voxel_size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count), [&](const tbb::blocked_range<std::size_t>& r) {
+    LeafCollector::Marker marker = collector.marker();
     for (std::size_t i = r.begin(); i < r.end(); ++i) {
       if (!point_ray(scan, i, rays[i])) continue;
       used[i] = 1;
@@ -503,7 +539,7 @@ void TsdfVolume::integrate(const ScanPoints& scan) {
       Coord last_leaf = Coord::max();
       for_each_crossed_voxel(start, rays[i].direction, 2 * truncation, inverse_voxel, [&](const Coord& c) {
         const Coord leaf = c & ~(openvdb::FloatTree::LeafNodeType::DIM - 1);
-        if (leaf != last_leaf) collector.touch_voxel(leaf);
+        if (leaf != last_leaf) marker.touch_voxel(leaf);
         last_leaf = leaf;
       });
     }
