@@ -168,13 +168,13 @@ Mesh TsdfVolume::extract_mesh(const ExtractOptions& options) const {
   // A vertex is kept where any crossing of its cell is measured, and placed at the mean of those
   // where some are not; triangles volumeToMesh emits itself keep the stricter rule of every crossing
   // of each vertex's cell measured. The old rule, every crossing of each vertex's cell observed,
-  // dropped every face around cells that hold the back of a band beside the surface: Kinect frames at 10 mm agreed on 75.7% of their pixels
-  // (now 80.5%, Open3D 78.1%), the bunny's completeness p90 at 2 mm was 1.63 mm (now 1.30, Open3D
-  // 1.35), with accuracy p90 0.42 mm (now 0.415, Open3D 0.54). Without the step limit, surfaces only
-  // ever seen from behind other surfaces doubled (Kinect at 4 mm, 5.5% of the faces against 2.9%).
-  // Left where volumeToMesh put them, vertices beside the back of a band leaned towards it (0.7
-  // voxels off a floor seen once; the Kinect frames agreed on 82.0%, the bunny's completeness p90 was
-  // 1.16 mm and its accuracy p90 0.43 mm).
+  // dropped every face around cells that hold the back of a band beside the surface: Kinect frames
+  // at 10 mm agreed on 75.7% of their pixels (now 80.5%, Open3D 78.1%), the bunny's completeness p90
+  // at 2 mm was 1.63 mm (now 1.30, Open3D 1.35), with accuracy p90 0.42 mm (now 0.415, Open3D 0.54).
+  // Without the step limit, surfaces only ever seen from behind other surfaces doubled (Kinect at
+  // 4 mm, 5.5% of the faces against 2.9%). Left where volumeToMesh put them, vertices beside the back
+  // of a band leaned towards it (0.7 voxels off a floor seen once; the Kinect frames agreed on 82.0%,
+  // the bunny's completeness p90 was 1.16 mm and its accuracy p90 0.43 mm).
   const double max_jump = 1.5 * truncation();
   const double inverse_voxel = 1.0 / voxel_size();
   std::vector<char> keep(points.size(), 0), strict(points.size(), 0);
