@@ -3,7 +3,6 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
-#include <limits>
 #include <mutex>
 
 #include "pg/core/error.h"
@@ -17,6 +16,33 @@ namespace {
 using openvdb::Coord;
 using openvdb::MaskTree;
 constexpr int leaf_voxels = openvdb::FloatTree::LeafNodeType::SIZE;  // 512
+
+// Calls visit(voxel) for every voxel whose cube (side one voxel around its centre) the segment
+// from + s * direction, s in [0, length], crosses, in order along the segment, each once (Amanatides &
+// Woo's traversal). World units; direction unit.
+template <class Visit>
+void for_each_crossed_voxel(const Eigen::Vector3d& from, const Eigen::Vector3d& direction, double length,
+                            double inverse_voxel, Visit&& visit) {
+  // Index space shifted by half a voxel, so that voxel i covers [i, i + 1) on each axis.
+  const Eigen::Vector3d start = from * inverse_voxel + Eigen::Vector3d::Constant(0.5);
+  const double end = length * inverse_voxel;
+  Coord cell(int(std::floor(start.x())), int(std::floor(start.y())), int(std::floor(start.z())));
+  int step[3];
+  double next[3], delta[3];
+  for (int a = 0; a < 3; ++a) {
+    step[a] = direction[a] > 0 ? 1 : -1;
+    const double boundary = cell[a] + (direction[a] > 0 ? 1 : 0);
+    next[a] = direction[a] != 0 ? (boundary - start[a]) / direction[a] : INFINITY;
+    delta[a] = direction[a] != 0 ? 1.0 / std::abs(direction[a]) : INFINITY;
+  }
+  for (;;) {
+    visit(cell);
+    const int a = next[0] <= next[1] ? (next[0] <= next[2] ? 0 : 2) : (next[1] <= next[2] ? 1 : 2);
+    if (!(next[a] <= end)) return;
+    cell[a] += step[a];
+    next[a] += delta[a];
+  }
+}
 
 // Marks the leaves that a segment of rays touches, one thread-local tree per worker, then unites them.
 class LeafCollector {
@@ -36,41 +62,17 @@ class LeafCollector {
     Marker(Local& local, double inverse_voxel) : accessor(local), inverse_voxel_(inverse_voxel) {}
 
     // Marks every leaf holding the voxel nearest to some point of from + t * direction, t in [t0, t1]
-    // (direction unit). In shifted voxel units q = p / voxel + 1/2 that voxel is floor(q) and its leaf
-    // floor(q / 8): the walk visits the leaf cells the segment crosses (Amanatides & Woo 1987), two or
-    // three per pixel's band instead of a sample per voxel.
+    // (direction unit): the leaf cells the segment crosses, two or three per pixel's band instead of a
+    // sample per voxel. for_each_crossed_voxel on the grid of leaves: voxel i covers [i - 1/2, i + 1/2)
+    // voxels and leaf n the voxels [8n, 8n + 8), so the start moves by 3.5 voxels to put leaf n's
+    // cube around its own centre.
     void touch_segment(const Eigen::Vector3d& from, const Eigen::Vector3d& direction, double t0, double t1) {
-      constexpr double leaf_dim = 8;
-      const Eigen::Vector3d a =
-          ((from + direction * t0) * inverse_voxel_ + Eigen::Vector3d::Constant(0.5)) / leaf_dim;
-      const Eigen::Vector3d b =
-          ((from + direction * t1) * inverse_voxel_ + Eigen::Vector3d::Constant(0.5)) / leaf_dim;
-      const Eigen::Vector3d d = b - a;
-      // floor by truncation from a positive offset (std::floor is a call on baseline x86-64): valid
-      // within 2^30 leaves of the origin.
-      const auto floor_int = [](double v) { return int(std::int64_t(v + 0x1p30) - (std::int64_t(1) << 30)); };
-      Coord cell, last;
-      int step[3];
-      double next[3],
-          delta[3];  // segment parameter in [0, 1] of the next boundary on each axis, and its period
-      int crossings = 0;
-      for (int k = 0; k < 3; ++k) {
-        cell[k] = floor_int(a[k]);
-        last[k] = floor_int(b[k]);
-        crossings += std::abs(last[k] - cell[k]);
-        step[k] = d[k] > 0 ? 1 : -1;
-        delta[k] = d[k] != 0 ? std::abs(1.0 / d[k]) : std::numeric_limits<double>::infinity();
-        next[k] = d[k] != 0 ? (cell[k] + (d[k] > 0 ? 1 : 0) - a[k]) / d[k]
-                            : std::numeric_limits<double>::infinity();
-      }
-      const auto touch = [&] { accessor.touchLeaf(Coord(cell.x() * 8, cell.y() * 8, cell.z() * 8)); };
-      touch();
-      for (int n = 0; n < crossings; ++n) {
-        const int k = next[0] <= next[1] ? (next[0] <= next[2] ? 0 : 2) : (next[1] <= next[2] ? 1 : 2);
-        cell[k] += step[k];
-        next[k] += delta[k];
-        touch();
-      }
+      constexpr int dim = openvdb::FloatTree::LeafNodeType::DIM;
+      const Eigen::Vector3d start =
+          from + direction * t0 - Eigen::Vector3d::Constant((dim / 2 - 0.5) / inverse_voxel_);
+      for_each_crossed_voxel(start, direction, t1 - t0, inverse_voxel_ / dim, [&](const Coord& leaf) {
+        accessor.touchLeaf(Coord(leaf.x() * dim, leaf.y() * dim, leaf.z() * dim));
+      });
     }
 
     void touch_voxel(const Coord& voxel) { accessor.touchLeaf(voxel); }
@@ -127,7 +129,7 @@ struct FrameProjector {
       return false;
     }
     // Pixel (px, py) covers [px - 1/2, px + 1/2): inside the image its rounding is the truncation of a
-    // positive number (std::floor is a call on baseline x86-64, and this runs for every voxel).
+    // positive number (cheaper than std::floor without SSE4.1, and this runs for every voxel).
     if (!(pixel.x() >= -0.5 && pixel.y() >= -0.5 && pixel.x() < frame.depth.cols - 0.5 &&
           pixel.y() < frame.depth.rows - 0.5))
       return false;
@@ -303,33 +305,6 @@ inline void accumulate_color(LeafSet& leaves, int n, const openvdb::Vec3s& color
   const float w1 = w0 + w;
   leaves.color->setValueOn(n, (c0 * w0 + color * w) / w1);
   leaves.color_weight->setValueOn(n, w1);
-}
-
-// Calls visit(voxel) for every voxel whose cube (side one voxel around its centre) the segment
-// from + s * direction, s in [0, length], crosses, in order along the segment, each once (Amanatides &
-// Woo's traversal). World units; direction unit.
-template <class Visit>
-void for_each_crossed_voxel(const Eigen::Vector3d& from, const Eigen::Vector3d& direction, double length,
-                            double inverse_voxel, Visit&& visit) {
-  // Index space shifted by half a voxel, so that voxel i covers [i, i + 1) on each axis.
-  const Eigen::Vector3d start = from * inverse_voxel + Eigen::Vector3d::Constant(0.5);
-  const double end = length * inverse_voxel;
-  Coord cell(int(std::floor(start.x())), int(std::floor(start.y())), int(std::floor(start.z())));
-  int step[3];
-  double next[3], delta[3];
-  for (int a = 0; a < 3; ++a) {
-    step[a] = direction[a] > 0 ? 1 : -1;
-    const double boundary = cell[a] + (direction[a] > 0 ? 1 : 0);
-    next[a] = direction[a] != 0 ? (boundary - start[a]) / direction[a] : INFINITY;
-    delta[a] = direction[a] != 0 ? 1.0 / std::abs(direction[a]) : INFINITY;
-  }
-  for (;;) {
-    visit(cell);
-    const int a = next[0] <= next[1] ? (next[0] <= next[2] ? 0 : 2) : (next[1] <= next[2] ? 1 : 2);
-    if (!(next[a] <= end)) return;
-    cell[a] += step[a];
-    next[a] += delta[a];
-  }
 }
 
 // One scan point's ray: unit direction, weight (multiplier, confidence, angle) and the cos of the
