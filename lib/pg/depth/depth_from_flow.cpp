@@ -79,6 +79,8 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
                          ref.id, "' is ", ref.width, "x", ref.height));
   if (!input.fb_error.empty() && input.fb_error.size() != size)
     throw UsageError("depth_from_flow: forward-backward error size differs from the flow");
+  if (!input.filled.empty() && input.filled.size() != size)
+    throw UsageError("depth_from_flow: filled-pixel mask size differs from the flow");
   if (!input.reference_mask.empty() && input.reference_mask.size() != size)
     throw UsageError("depth_from_flow: reference mask size differs from the camera");
   if (!input.other_mask.empty() && input.other_mask.size() != cv::Size(other.width, other.height))
@@ -151,8 +153,9 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
       for (int x = 0; x < size.width; ++x) {
         if (outcome(y, x) != kept) continue;
         const cv::Vec2f f = input.flow(y, x);
-        const float fb = input.fb_error.empty() ? 0.f : input.fb_error(y, x);
-        const double fb_limit = options.max_fb_error + 0.02 * std::hypot(f[0], f[1]);
+        const bool filled = !input.filled.empty() && input.filled(y, x) != 0;
+        const float fb = input.fb_error.empty() || filled ? 0.f : input.fb_error(y, x);
+        const double fb_limit = options.max_fb_error + fb_error_per_flow * std::hypot(f[0], f[1]);
         const cv::Vec3f n = normals(y, x);
         const Eigen::Vector3d ray = ref.unproject(Eigen::Vector2d(x, y));
         // Facing: cosine between the normal and the direction back to the camera (the pixel's ray).
@@ -168,7 +171,7 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
           o = grazing;
         outcome(y, x) = o;
         if (o == kept) {
-          const double fb_term = 1.0 - std::min(1.0, fb / fb_limit);
+          const double fb_term = filled ? 0.0 : 1.0 - std::min(1.0, fb / fb_limit);
           const double angle_term = std::min(1.0, angle(y, x) / (3.0 * std::max(min_angle, 1e-6)));
           confidence(y, x) = static_cast<float>((0.5 + 0.5 * fb_term) * angle_term * facing);
         }

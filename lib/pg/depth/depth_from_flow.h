@@ -11,7 +11,7 @@ namespace pg {
 
 struct DepthFilterOptions {
   double min_triangulation_angle_deg = 1.0;  // rays closer to parallel than this give noisy depth
-  double max_fb_error = 1.0;                 // forward-backward flow error, pixels (+ 2% of the flow)
+  double max_fb_error = 1.0;                 // forward-backward flow error, pixels (+ fb_error_per_flow)
   double max_epipolar_residual = 1.0;        // reprojection error of the triangulated point, pixels
   double max_grazing_angle_deg = 80.0;       // angle between the surface normal and the viewing ray
   double max_depth_jump = 0.04;              // relative depth step to a 4-neighbour: a discontinuity
@@ -24,6 +24,9 @@ struct DepthFilterOptions {
   void check() const;  // throws UsageError
 };
 
+// The forward-backward limit grows by this fraction of the flow's length (pixels per pixel).
+inline constexpr double fb_error_per_flow = 0.02;
+
 // Why pixels were rejected (a pixel counts under the first reason that applies, in this order).
 struct DepthRejections {
   std::size_t masked = 0;          // user mask of either view
@@ -33,7 +36,7 @@ struct DepthRejections {
   std::size_t epipolar = 0;
   std::size_t grazing = 0;
   std::size_t discontinuity = 0;
-  std::size_t textureless = 0;     // reference image too flat to match (min_texture)
+  std::size_t textureless = 0;  // reference image too flat to match (min_texture)
 };
 
 struct DepthFromFlowResult {
@@ -46,8 +49,11 @@ struct DepthFromFlowResult {
 struct DepthFromFlowInput {
   const Camera* reference = nullptr;  // the flow's `from` view; its size is the flow's size
   const Camera* other = nullptr;
-  cv::Mat2f flow;            // reference -> other, pixels
-  cv::Mat1f fb_error;        // optional: forward_backward_error(flow, backward)
+  cv::Mat2f flow;      // reference -> other, pixels
+  cv::Mat1f fb_error;  // optional: forward_backward_error(flow, backward)
+  // Optional, nonzero = the flow was filled in (fill_occlusions_along_lines) where it failed the
+  // forward-backward check: such a pixel skips that check and its term of the confidence is 0.
+  cv::Mat1b filled;
   cv::Mat1b reference_mask;  // optional, reference size: nonzero = ignore
   cv::Mat1b other_mask;      // optional, other camera's size: nonzero = ignore
   cv::Mat1f texture;         // optional, reference size: local_texture(reference image)

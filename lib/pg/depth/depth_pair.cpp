@@ -1,7 +1,6 @@
 #include "pg/depth/depth_pair.h"
 
 #include <chrono>
-#include <cmath>
 #include <opencv2/imgproc.hpp>
 
 #include "pg/core/error.h"
@@ -61,19 +60,11 @@ DepthPairResult compute_depth_pair(const DepthPairInput& input, const DepthPairO
       options.epipolar ? compute_epipolar_flow_bidirectional(ref_image, other_image, forward_field,
                                                              epipolar_field(other, reference), options.flow)
                        : compute_flow_bidirectional(ref_image, other_image, options.flow);
-  if (options.fill_occlusions) {
-    // The depth filter's own consistency rule picks the pixels; filled ones then sit just inside its
-    // limit, which halves their confidence (depth_from_flow).
-    const double max_fb = options.filter.max_fb_error;
-    const cv::Mat1b hidden = occlusion_mask(flow.fb_error, flow.forward, max_fb, 0.02);
-    flow.forward = fill_occlusions_along_lines(flow.forward, hidden, forward_field);
-    for (int y = 0; y < hidden.rows; ++y)
-      for (int x = 0; x < hidden.cols; ++x) {
-        if (hidden(y, x) == 0) continue;
-        const cv::Vec2f f = flow.forward(y, x);
-        flow.fb_error(y, x) = static_cast<float>((max_fb + 0.02 * std::hypot(f[0], f[1])) * (1 - 1e-5));
-      }
-    result.filled = static_cast<std::size_t>(cv::countNonZero(hidden));
+  cv::Mat1b filled;
+  if (options.fill_occlusions) {  // the pixels the depth filter's own consistency check rejects
+    filled = occlusion_mask(flow.fb_error, flow.forward, options.filter.max_fb_error, fb_error_per_flow);
+    flow.forward = fill_occlusions_along_lines(flow.forward, filled, forward_field);
+    result.filled = static_cast<std::size_t>(cv::countNonZero(filled));
   }
   result.flow_seconds = seconds_since(flow_start);
 
@@ -83,6 +74,7 @@ DepthPairResult compute_depth_pair(const DepthPairInput& input, const DepthPairO
   depth_input.other = &other;
   depth_input.flow = flow.forward;
   depth_input.fb_error = flow.fb_error;
+  depth_input.filled = filled;
   depth_input.reference_mask = resized(input.reference_mask, ref_size, cv::INTER_NEAREST);
   depth_input.other_mask = resized(input.other_mask, other_size, cv::INTER_NEAREST);
   depth_input.texture = local_texture(ref_image);
