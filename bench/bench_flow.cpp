@@ -280,16 +280,16 @@ void bench_stereo(const fs::path& data) {
       methods.push_back({"pg dense stereo balanced",
                          [](const Pair& p) { return dense_stereo(p, pg::FlowOptions::preset("balanced")); },
                          true});
-    for (const auto& [name, options] : custom_settings)
+    for (const auto& [name, options] : custom_settings) {
       methods.push_back(
           {"pg dense stereo " + name, [o = options](const Pair& p) { return dense_stereo(p, o); }, true});
-    for (const auto& [name, options] : custom_settings)
       methods.push_back(
           {"pg epipolar " + name,
            [o = options](const Pair& p) {
              return pg::compute_epipolar_flow(p.from, p.to, rectified_field(p.from.size()), o).flow;
            },
            true});
+    }
     if (run_opencv) {
       for (Method& peer : opencv_methods()) methods.push_back(peer);
       methods.push_back(
@@ -320,12 +320,9 @@ void bench_stereo(const fs::path& data) {
           method.name.find("dense stereo") != std::string::npos)
         best_epipolar = std::min(best_epipolar, s.bad2);
     }
-    std::printf(
-        "  %-8s bad-2px: best pg %.2f%%, best pg epipolar %.2f%%, best OpenCV %.2f%% (ratio %.3f), best "
-        "dense "
-        "OpenCV %.2f%% (ratio %.3f)\n",
-        c.name.c_str(), best_ours, best_epipolar, best_peer, best_ours / best_peer, best_dense_peer,
-        best_ours / best_dense_peer);
+    std::printf("  %-8s bad-2px: best pg %.2f%%, best pg epipolar %.2f%%, best OpenCV %.2f%% (ratio %.3f), ",
+                c.name.c_str(), best_ours, best_epipolar, best_peer, best_ours / best_peer);
+    std::printf("best dense OpenCV %.2f%% (ratio %.3f)\n", best_dense_peer, best_ours / best_dense_peer);
   }
 }
 
