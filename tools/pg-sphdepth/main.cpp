@@ -193,7 +193,10 @@ int main(int argc, char** argv) {
     mesh.provenance = pg::Provenance::current();
     pg::write_mesh(mesh_path, mesh);
 
-    const pg::RoomPlanes planes = pg::fit_room_planes(result.map);
+    pg::RoomPlaneOptions plane_options;
+    plane_options.baseline = pair.baseline;
+    plane_options.seed = frame.seed();
+    const pg::RoomPlanes planes = pg::fit_room_planes(result.map, plane_options);
     pg::log::info(pg::str(stem, ": ", result.valid, " valid pixels (", 100 * result.valid_fraction(),
                           "%); rejected: pole band ", result.pole_band, ", inconsistent ",
                           result.inconsistent, ", untriangulated ", result.untriangulated, ", too far ",

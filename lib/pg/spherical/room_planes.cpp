@@ -3,7 +3,6 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <numbers>
 #include <random>
 
@@ -28,12 +27,9 @@ double median_range(const std::vector<Eigen::Vector3d>& points) {
 }
 
 // RANSAC over `points` for the plane with most inliers within `threshold`; refined by least squares
-// on its inliers. Returns the fit and marks its inliers.
-// `accept` filters the hypotheses by their unit normal.
+// on its inliers.
 std::optional<PlaneFit> ransac_plane(const std::vector<Eigen::Vector3d>& points, double threshold,
-                                     int iterations, std::mt19937_64& random, std::vector<bool>& inlier,
-                                     const std::function<bool(const Eigen::Vector3d&)>& accept) {
-  inlier.assign(points.size(), false);
+                                     int iterations, std::mt19937_64& random) {
   if (points.size() < 3) return std::nullopt;
   std::uniform_int_distribution<std::size_t> pick(0, points.size() - 1);
   Eigen::Vector3d best_normal = Eigen::Vector3d::Zero();
@@ -44,7 +40,6 @@ std::optional<PlaneFit> ransac_plane(const std::vector<Eigen::Vector3d>& points,
     const Eigen::Vector3d normal = (points[pick(random)] - a).cross(points[pick(random)] - a);
     if (normal.norm() < 1e-12) continue;
     const Eigen::Vector3d n = normal.normalized();
-    if (!accept(n)) continue;
     const double offset = -n.dot(a);
     std::size_t count = 0;
     for (const Eigen::Vector3d& p : points) count += std::abs(n.dot(p) + offset) < threshold;
@@ -52,24 +47,107 @@ std::optional<PlaneFit> ransac_plane(const std::vector<Eigen::Vector3d>& points,
   }
   if (best_count < 3) return std::nullopt;
   std::vector<Eigen::Vector3d> members;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    inlier[i] = std::abs(best_normal.dot(points[i]) + best_offset) < threshold;
-    if (inlier[i]) members.push_back(points[i]);
-  }
+  for (const Eigen::Vector3d& p : points)
+    if (std::abs(best_normal.dot(p) + best_offset) < threshold) members.push_back(p);
   return fit_plane(members);
+}
+
+// A wall candidate: its point, its place on the floor's plane, how far off a wall it may lie, and the
+// area it stands for (range^2: a pixel's solid angle at that range).
+struct WallPoint {
+  Eigen::Vector3d point;
+  Eigen::Vector2d ground;
+  double tolerance = 0;
+  double area = 0;
+};
+
+// A vertical plane as a line n . g + c = 0 on the floor's plane.
+struct GroundLine {
+  Eigen::Vector2d normal;
+  double offset = 0;
+  bool holds(const WallPoint& p) const { return std::abs(normal.dot(p.ground) + offset) < p.tolerance; }
+};
+
+// Least squares line through the points `member` marks, each weighted by 1 / tolerance^2.
+GroundLine fit_ground_line(const std::vector<WallPoint>& points, const std::vector<bool>& member) {
+  double total = 0;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (member[i]) {
+      const double w = 1 / (points[i].tolerance * points[i].tolerance);
+      mean += w * points[i].ground, total += w;
+    }
+  mean /= total;
+  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (member[i]) {
+      const Eigen::Vector2d d = points[i].ground - mean;
+      scatter += d * d.transpose() / (points[i].tolerance * points[i].tolerance);
+    }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(scatter);
+  const Eigen::Vector2d normal = solver.eigenvectors().col(0).normalized();
+  return {normal, -normal.dot(mean)};
+}
+
+// The free points on `line`, and their area.
+double collect(const std::vector<WallPoint>& points, const std::vector<bool>& taken, const GroundLine& line,
+               std::vector<bool>& member) {
+  double area = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    member[i] = !taken[i] && line.holds(points[i]);
+    if (member[i]) area += points[i].area;
+  }
+  return area;
+}
+
+// The vertical plane holding the largest area of free points: lines through pairs of nearby
+// candidates (a few samples apart in scan order, so mostly on one surface), the best refined by
+// weighted least squares on its inliers. Marks its members; returns their area.
+double largest_wall(const std::vector<WallPoint>& points, const std::vector<bool>& taken, int iterations,
+                    std::mt19937_64& random, std::vector<bool>& member) {
+  member.assign(points.size(), false);
+  if (points.size() < 32) return 0;
+  std::uniform_int_distribution<std::size_t> pick(0, points.size() - 1);
+  std::uniform_int_distribution<std::size_t> step(3, 30);
+  std::vector<bool> trial(points.size());
+  GroundLine best;
+  double best_area = 0;
+  for (int it = 0; it < iterations; ++it) {
+    const std::size_t i = pick(random), j = i + step(random);
+    if (j >= points.size() || taken[i] || taken[j]) continue;
+    const Eigen::Vector2d direction = points[j].ground - points[i].ground;
+    if (direction.norm() < 4 * points[i].tolerance) continue;  // too short to give a direction
+    const Eigen::Vector2d normal = Eigen::Vector2d(-direction.y(), direction.x()).normalized();
+    const GroundLine line{normal, -normal.dot(points[i].ground)};
+    double area = 0;
+    for (std::size_t k = 0; k < points.size(); ++k)
+      if (!taken[k] && line.holds(points[k])) area += points[k].area;
+    if (area > best_area) best_area = area, best = line;
+  }
+  if (best_area == 0) return 0;
+  double area = collect(points, taken, best, member);
+  for (int round = 0; round < 3; ++round) {
+    if (std::count(member.begin(), member.end(), true) < 3) break;
+    area = collect(points, taken, fit_ground_line(points, member), trial);
+    std::swap(member, trial);
+  }
+  return area;
 }
 
 }  // namespace
 
-PlaneFit fit_plane(const std::vector<Eigen::Vector3d>& points) {
+PlaneFit fit_plane(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& weights) {
   PlaneFit fit;
   fit.inliers = points.size();
   if (points.size() < 3) return fit;
+  const auto weight = [&](std::size_t i) { return weights.empty() ? 1.0 : weights[i]; };
+  double total = 0;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : points) mean += p;
-  mean /= static_cast<double>(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) mean += weight(i) * points[i], total += weight(i);
+  mean /= total;
   Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : points) scatter += (p - mean) * (p - mean).transpose();
+  for (std::size_t i = 0; i < points.size(); ++i)
+    scatter += weight(i) * (points[i] - mean) * (points[i] - mean).transpose();
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter);
   fit.normal = solver.eigenvectors().col(0).normalized();
   fit.offset = -fit.normal.dot(mean);
@@ -82,49 +160,74 @@ PlaneFit fit_plane(const std::vector<Eigen::Vector3d>& points) {
 
 RoomPlanes fit_room_planes(const DepthMap& map, const RoomPlaneOptions& options) {
   const cv::Mat1f depth = map.depth;
+  const auto point_at = [&](int x, int y, double value) -> Eigen::Vector3d {
+    return value * (map.camera.model == CameraModel::equirectangular
+                        ? equirect_direction_from_pixel(depth.cols, depth.rows, Eigen::Vector2d(x, y))
+                        : map.camera.unproject(Eigen::Vector2d(x, y)));
+  };
+  // Every second pixel is plenty for a plane and quarters the RANSAC cost.
   const double floor_cos = std::cos(options.floor_cone_deg / degrees);
-  const double wall_sin = std::sin(options.wall_band_deg / degrees);
-  std::vector<Eigen::Vector3d> floor_points, wall_points;
-  // Every second pixel is plenty for a plane and halves the RANSAC cost.
-  for (int y = 0; y < depth.rows; y += 2) {
-    for (int x = 0; x < depth.cols; x += 2) {
-      const float range = depth(y, x);
-      if (!std::isfinite(range) || range <= 0) continue;
-      const Eigen::Vector3d ray =
-          map.camera.model == CameraModel::equirectangular
-              ? equirect_direction_from_pixel(depth.cols, depth.rows, Eigen::Vector2d(x, y))
-              : map.camera.unproject(Eigen::Vector2d(x, y));
-      if (ray.y() > floor_cos) floor_points.push_back(range * ray);
-      if (std::abs(ray.y()) < wall_sin) wall_points.push_back(range * ray);
-    }
-  }
+  std::vector<Eigen::Vector3d> floor_points;
+  for (int y = 0; y < depth.rows; y += 2)
+    for (int x = 0; x < depth.cols; x += 2)
+      if (const float value = depth(y, x); std::isfinite(value) && value > 0) {
+        const Eigen::Vector3d point = point_at(x, y, value);
+        if (point.normalized().y() > floor_cos) floor_points.push_back(point);
+      }
   RoomPlanes planes;
   std::mt19937_64 random(options.seed);
-  std::vector<bool> inlier;
-  planes.floor =
-      ransac_plane(floor_points, options.inlier_fraction * median_range(floor_points), options.iterations,
-                   random, inlier, [](const Eigen::Vector3d&) { return true; });
-  // Walls are the planes closer to vertical than to horizontal (the angles reported are measured).
+  planes.floor = ransac_plane(floor_points, options.inlier_fraction * median_range(floor_points),
+                              options.iterations, random);
+
+  // Wall candidates, in scan order, placed on the floor's plane.
   const Eigen::Vector3d up = planes.floor ? planes.floor->normal : Eigen::Vector3d(0, -1, 0);
-  const auto is_wall = [&](const Eigen::Vector3d& n) { return std::abs(n.dot(up)) < std::sqrt(0.5); };
-  // Walls one after another, each from the points the previous ones did not take.
-  const double wall_threshold = options.inlier_fraction * median_range(wall_points);
-  const std::size_t min_inliers = static_cast<std::size_t>(options.min_wall_share * wall_points.size());
-  std::vector<Eigen::Vector3d> remaining = wall_points;
-  if (planes.floor) {  // the floor's own points near the horizon are not wall candidates
-    std::erase_if(remaining, [&](const Eigen::Vector3d& p) {
-      return std::abs(planes.floor->normal.dot(p) + planes.floor->offset) < wall_threshold;
-    });
+  const Eigen::Vector3d across = up.unitOrthogonal(), along = up.cross(across);
+  const double wall_sin = std::sin(options.wall_band_deg / degrees);
+  const double baseline = options.baseline.norm();
+  // The range error of d radians of disparity is range^2 d / (baseline sin(angle to the baseline)).
+  const double disparity = options.wall_disparity_px * 2 * std::numbers::pi / depth.cols;
+  std::vector<WallPoint> candidates;
+  for (int y = 0; y < depth.rows; y += 2)
+    for (int x = 0; x < depth.cols; x += 2) {
+      const float value = depth(y, x);
+      if (!std::isfinite(value) || value <= 0) continue;
+      WallPoint p;
+      p.point = point_at(x, y, value);
+      const double range = p.point.norm();
+      const Eigen::Vector3d ray = p.point / range;
+      if (range > options.max_wall_range || ray.dot(up) < 0 || ray.dot(up) > wall_sin ||
+          p.point.dot(up) > options.max_wall_height)
+        continue;
+      p.ground = {p.point.dot(across), p.point.dot(along)};
+      p.area = range * range;
+      if (baseline > 0) {
+        const double sin_to_baseline = std::max(ray.cross(options.baseline / baseline).norm(), 0.1);
+        p.tolerance = disparity * p.area / (baseline * sin_to_baseline);
+      }
+      candidates.push_back(p);
+    }
+  if (baseline == 0) {
+    std::vector<Eigen::Vector3d> points;
+    for (const WallPoint& p : candidates) points.push_back(p.point);
+    const double tolerance = options.inlier_fraction * median_range(points);
+    for (WallPoint& p : candidates) p.tolerance = tolerance;
   }
+
+  // Walls one after another, each from the candidates the previous ones did not take.
+  double total_area = 0;
+  for (const WallPoint& p : candidates) total_area += p.area;
+  std::vector<bool> taken(candidates.size(), false), member;
   for (int w = 0; w < options.max_walls; ++w) {
-    const std::optional<PlaneFit> wall =
-        ransac_plane(remaining, wall_threshold, options.iterations, random, inlier, is_wall);
-    if (!wall || wall->inliers < std::max<std::size_t>(min_inliers, 3)) break;
-    planes.walls.push_back(*wall);
-    std::vector<Eigen::Vector3d> rest;
-    for (std::size_t i = 0; i < remaining.size(); ++i)
-      if (!inlier[i]) rest.push_back(remaining[i]);
-    remaining = std::move(rest);
+    const double area = largest_wall(candidates, taken, options.iterations, random, member);
+    if (area == 0 || area < options.min_wall_share * total_area) break;
+    std::vector<Eigen::Vector3d> points;
+    std::vector<double> weights;
+    for (std::size_t i = 0; i < candidates.size(); ++i)
+      if (member[i]) {
+        points.push_back(candidates[i].point), taken[i] = true;
+        weights.push_back(1 / (candidates[i].tolerance * candidates[i].tolerance));
+      }
+    planes.walls.push_back(fit_plane(points, weights));
   }
   for (std::size_t i = 0; i < planes.walls.size(); ++i) {
     if (planes.floor)
