@@ -8,8 +8,8 @@
 
 #include "pg/camera/cameras_io.h"
 #include "pg/eval/camera_eval.h"
-#include "pg/mesh/point_cloud.h"
 #include "pg/eval/orientation_error.h"
+#include "pg/mesh/point_cloud.h"
 #include "pg/testing/exif_writer.h"
 #include "pg/testing/testing.h"
 
@@ -19,19 +19,17 @@ using pg::testing::TempDir;
 
 namespace {
 
-// One orbit scene for the whole suite (rendering it is the slow part).
+// One orbit scene for every test of the suite, each in its own process (rendering it is the slow
+// part). The tests only read it.
 class PgTrack : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    scene_ = new TempDir;
-    const auto r = run_tool("pg-synth", {"set", "--out", scene().string()});
-    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    const pg::testing::SharedOutput orbit =
+        pg::testing::shared_tool_output("pg-track-orbit", "pg-synth", {"set"});
+    ASSERT_EQ(orbit.run.exit_code, 0) << orbit.run.stderr_text;
+    scene_ = orbit.folder;
   }
-  static void TearDownTestSuite() {
-    delete scene_;
-    scene_ = nullptr;
-  }
-  static fs::path scene() { return scene_->path(); }
+  static fs::path scene() { return scene_; }
 
   static double path_extent(const pg::CameraSet& set) {
     double extent = 0;
@@ -42,9 +40,9 @@ class PgTrack : public ::testing::Test {
   }
 
  private:
-  static TempDir* scene_;
+  static fs::path scene_;
 };
-TempDir* PgTrack::scene_ = nullptr;
+fs::path PgTrack::scene_;
 
 TEST_F(PgTrack, OrbitWithExactIntrinsicsMeetsTheAccuracyTargets) {
   TempDir out;

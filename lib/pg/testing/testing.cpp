@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <spawn.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -97,6 +98,41 @@ ToolResult run_tool(const std::string& tool, const std::vector<std::string>& arg
   result.stdout_text = read_text(out_path);
   result.stderr_text = read_text(err_path);
   return result;
+}
+
+SharedOutput shared_tool_output(const std::string& name, const std::string& tool,
+                                const std::vector<std::string>& args) {
+  const fs::path binary = bin_dir() / tool;
+  std::error_code ec;
+  const auto stamp = fs::last_write_time(binary, ec).time_since_epoch().count();
+  const std::string key =
+      name + "-" + std::to_string(fs::file_size(binary, ec)) + "-" + std::to_string(stamp);
+  const fs::path cache = bin_dir().parent_path() / "test-cache";
+  fs::create_directories(cache);
+  SharedOutput out{cache / key, {}};
+  out.run.exit_code = 0;
+  // flock is released when the descriptor closes, also when a test process dies.
+  const int lock = ::open((cache / (name + ".lock")).c_str(), O_RDWR | O_CREAT, 0644);
+  if (lock < 0 || ::flock(lock, LOCK_EX) != 0) {
+    out.run = {-1, "", "cannot lock " + (cache / (name + ".lock")).string()};
+    if (lock >= 0) ::close(lock);
+    return out;
+  }
+  if (!fs::exists(out.folder / ".complete")) {
+    for (const fs::directory_entry& entry : fs::directory_iterator(cache))  // older builds' folders
+      if (entry.is_directory() && entry.path().filename().string().starts_with(name + "-"))
+        fs::remove_all(entry.path(), ec);
+    const fs::path partial = cache / (key + ".partial");
+    std::vector<std::string> full_args = args;
+    full_args.insert(full_args.end(), {"--out", partial.string()});
+    out.run = run_tool(tool, full_args);
+    if (out.run.exit_code == 0) {
+      write_text(partial / ".complete", "");
+      fs::rename(partial, out.folder);
+    }
+  }
+  ::close(lock);
+  return out;
 }
 
 }  // namespace pg::testing

@@ -38,6 +38,18 @@ struct ToolResult {
 ToolResult run_tool(const std::string& tool, const std::vector<std::string>& args,
                     const std::vector<std::string>& extra_env = {});
 
+// A tool's output folder made once per build and shared by every test process that asks for it: the
+// first caller runs `tool args... --out FOLDER` while the others wait on a lock, later callers reuse
+// the folder. It lives under the build tree, keyed by `name` and by the tool binary's size and time,
+// so a rebuilt tool makes a fresh one. For inputs that are slow to make (a rendered orbit) and only
+// read by the tests. `run` is the tool's result when this call made the folder, exit code 0 otherwise.
+struct SharedOutput {
+  std::filesystem::path folder;
+  ToolResult run;
+};
+SharedOutput shared_tool_output(const std::string& name, const std::string& tool,
+                                const std::vector<std::string>& args);
+
 std::string read_text(const std::filesystem::path& path);
 void write_text(const std::filesystem::path& path, const std::string& text);
 void write_bytes(const std::filesystem::path& path, const std::vector<unsigned char>& bytes);
