@@ -33,9 +33,9 @@
 #include "pg/build_info.h"
 #include "pg/eval/flo_io.h"
 #include "pg/eval/flow_eval.h"
+#include "pg/eval/truth_import.h"
 #include "pg/flow/flow.h"
 #include "pg/image/image_io.h"
-#include "pg/sfm/truth_import.h"
 
 namespace fs = std::filesystem;
 

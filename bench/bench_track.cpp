@@ -22,9 +22,9 @@
 #include "pg/build_info.h"
 #include "pg/eval/camera_eval.h"
 #include "pg/eval/orientation_error.h"
+#include "pg/eval/truth_import.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/sfm_outputs.h"
-#include "pg/sfm/truth_import.h"
 #include "pg/track/correspondences.h"
 
 namespace fs = std::filesystem;
@@ -188,7 +188,7 @@ Dataset resized(const Dataset& d, double factor, const fs::path& folder, const s
       cv::resize(m, small, cv::Size(), factor, factor, cv::INTER_AREA);
       cv::imwrite(target.string(), small, {cv::IMWRITE_JPEG_QUALITY, 98});
     }
-    out.truth.cameras.push_back(pg::scale_camera_images(c, factor));
+    out.truth.cameras.push_back(pg::resized_camera(c, factor));
   }
   return out;
 }

@@ -95,7 +95,7 @@ void require_memory(const Options& o, const pg::CameraSet& set, const std::vecto
   for (const PairIds& ids : pairs) {
     const pg::Camera& reference = *set.find(ids.reference);
     const pg::Camera& other = *set.find(ids.other);
-    const pg::Camera working = options.scale == 1 ? reference : pg::scale_camera(reference, options.scale);
+    const pg::Camera working = options.scale == 1 ? reference : pg::resized_camera(reference, options.scale);
     const std::uint64_t bytes = pg::depth_pair_memory_bytes(
         reference, other, pg::decoded_image_bytes_per_pixel(image_path(o.cameras, reference)),
         pg::max_flow_channels, options);

@@ -1,6 +1,7 @@
 #include "pg/camera/camera.h"
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -211,6 +212,20 @@ Eigen::Matrix3d Camera::K() const {
   Eigen::Matrix3d k;
   k << intrinsics.fx, 0, intrinsics.cx, 0, intrinsics.fy, intrinsics.cy, 0, 0, 1;
   return k;
+}
+
+Camera resized_camera(const Camera& camera, double factor) {
+  Camera c = camera;
+  c.width = std::max(1, static_cast<int>(std::lround(camera.width * factor)));
+  c.height = std::max(1, static_cast<int>(std::lround(camera.height * factor)));
+  if (camera.model == CameraModel::equirectangular) return c;
+  const double sx = static_cast<double>(c.width) / camera.width,
+               sy = static_cast<double>(c.height) / camera.height;
+  c.intrinsics.fx *= sx;
+  c.intrinsics.fy *= sy;
+  c.intrinsics.cx = (camera.intrinsics.cx + 0.5) * sx - 0.5;
+  c.intrinsics.cy = (camera.intrinsics.cy + 0.5) * sy - 0.5;
+  return c;
 }
 
 }  // namespace pg

@@ -22,7 +22,9 @@ struct Intrinsics {
 // pinhole: k1 k2 p1 p2 k3 k4 k5 k6 (OpenCV order); fisheye: k1 k2 k3 k4 (others zero).
 struct Distortion {
   double k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0, k4 = 0, k5 = 0, k6 = 0;
-  bool is_zero() const { return k1 == 0 && k2 == 0 && p1 == 0 && p2 == 0 && k3 == 0 && k4 == 0 && k5 == 0 && k6 == 0; }
+  bool is_zero() const {
+    return k1 == 0 && k2 == 0 && p1 == 0 && p2 == 0 && k3 == 0 && k4 == 0 && k5 == 0 && k6 == 0;
+  }
 };
 
 struct Camera {
@@ -33,8 +35,8 @@ struct Camera {
   Intrinsics intrinsics;  // unused for equirectangular
   Distortion distortion;
   Rigid3 cam_from_world;
-  std::optional<double> quality;       // optional per-camera tracking quality in [0, 1]
-  std::optional<std::string> rig;      // rig id this camera belongs to
+  std::optional<double> quality;   // optional per-camera tracking quality in [0, 1]
+  std::optional<std::string> rig;  // rig id this camera belongs to
   // Standard deviations of the calibrated parameters, when known (pg-calib fills these).
   std::optional<std::array<double, 12>> stddev;  // fx fy cx cy k1 k2 p1 p2 k3 k4 k5 k6
 
@@ -65,5 +67,10 @@ double undistort_fisheye_theta(const Distortion& d, double theta_d);
 // looking backwards) is the left/right image edge, the top row looks up, the bottom row down.
 Eigen::Vector2d equirect_pixel_from_direction(int width, int height, const Eigen::Vector3d& dir);
 Eigen::Vector3d equirect_direction_from_pixel(int width, int height, const Eigen::Vector2d& pixel);
+
+// The camera of its images resized by `factor`: the size rounded (at least 1 pixel), pinhole and
+// fisheye intrinsics scaled by the sizes' actual ratio with pixel centres kept consistent
+// (c' = (c + 0.5) s - 0.5); an equirectangular camera only changes size.
+Camera resized_camera(const Camera& camera, double factor);
 
 }  // namespace pg

@@ -60,19 +60,6 @@ cv::Mat3f normals_from_depth(const cv::Mat1f& depth, const Camera& camera, Depth
   return normals;
 }
 
-Camera scale_camera(const Camera& camera, double scale) {
-  Camera out = camera;
-  out.width = std::max(1, static_cast<int>(std::lround(camera.width * scale)));
-  out.height = std::max(1, static_cast<int>(std::lround(camera.height * scale)));
-  const double sx = static_cast<double>(out.width) / camera.width,
-               sy = static_cast<double>(out.height) / camera.height;
-  out.intrinsics.fx *= sx;
-  out.intrinsics.fy *= sy;
-  out.intrinsics.cx = (camera.intrinsics.cx + 0.5) * sx - 0.5;
-  out.intrinsics.cy = (camera.intrinsics.cy + 0.5) * sy - 0.5;
-  return out;
-}
-
 namespace {
 
 bool valid_pixel(const DepthMap& map, int x, int y) {

@@ -21,9 +21,6 @@ double depth_of_point(DepthKind kind, const Eigen::Vector3d& point_cam);
 // (one-sided where a neighbour is invalid), facing the camera; NaN where no two neighbours exist.
 cv::Mat3f normals_from_depth(const cv::Mat1f& depth, const Camera& camera, DepthKind kind);
 
-// The same camera at `scale` times the resolution (pixel centres stay consistent: c' = (c + 0.5) s - 0.5).
-Camera scale_camera(const Camera& camera, double scale);
-
 // World-frame points of the valid (finite depth, unmasked) pixels, with normals, colours from
 // `image` (8-bit BGR or grey, same size; optional) and confidence when the map has them.
 PointCloud depth_point_cloud(const DepthMap& map, const cv::Mat& image = {});

@@ -19,8 +19,8 @@ std::uint64_t depth_pair_memory_bytes(const Camera& reference, const Camera& oth
   std::uint64_t bytes = (pixels(reference) + pixels(other)) * per_pixel;
   Camera working = reference;
   if (options.scale != 1) {
-    working = scale_camera(reference, options.scale);
-    bytes += (pixels(working) + pixels(scale_camera(other, options.scale))) * per_pixel;
+    working = resized_camera(reference, options.scale);
+    bytes += (pixels(working) + pixels(resized_camera(other, options.scale))) * per_pixel;
   }
   return bytes + bidirectional_flow_memory_bytes(cv::Size(working.width, working.height), channels,
                                                  options.flow, options.epipolar);

@@ -44,8 +44,8 @@ DepthPairResult compute_depth_pair(const DepthPairInput& input, const DepthPairO
   if (input.reference_image.channels() != input.other_image.channels())
     throw UsageError("depth: the two images have different channel counts");
   const Camera reference =
-      options.scale == 1 ? input.reference : scale_camera(input.reference, options.scale);
-  const Camera other = options.scale == 1 ? input.other : scale_camera(input.other, options.scale);
+      options.scale == 1 ? input.reference : resized_camera(input.reference, options.scale);
+  const Camera other = options.scale == 1 ? input.other : resized_camera(input.other, options.scale);
   const cv::Size ref_size(reference.width, reference.height), other_size(other.width, other.height);
   const cv::Mat ref_image = resized(input.reference_image, ref_size, cv::INTER_AREA);
   const cv::Mat other_image = resized(input.other_image, other_size, cv::INTER_AREA);

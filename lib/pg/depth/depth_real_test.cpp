@@ -10,6 +10,7 @@
 
 #include "pg/depth/depth_geometry.h"
 #include "pg/depth/depth_pair.h"
+#include "pg/eval/truth_import.h"
 #include "pg/image/image_io.h"
 #include "pg/testing/testing.h"
 
@@ -17,38 +18,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A Strecha camera file: K (3 lines), radial distortion (1 line, zero), R camera-to-world
-// (3 lines), centre C (1 line), "w h": x_cam = R^T (X - C).
-pg::Camera read_strecha_camera(const fs::path& file, const std::string& id) {
-  std::ifstream in(file);
-  Eigen::Matrix3d k, r;
-  Eigen::Vector3d distortion, centre;
-  for (int i = 0; i < 9; ++i) in >> k(i / 3, i % 3);
-  for (int i = 0; i < 3; ++i) in >> distortion(i);
-  for (int i = 0; i < 9; ++i) in >> r(i / 3, i % 3);
-  for (int i = 0; i < 3; ++i) in >> centre(i);
-  pg::Camera camera;
-  in >> camera.width >> camera.height;
-  EXPECT_TRUE(in) << file;
-  camera.id = id;
-  camera.intrinsics = {k(0, 0), k(1, 1), k(0, 2), k(1, 2)};
-  const Eigen::Matrix3d cam_from_world = r.transpose();
-  camera.cam_from_world.rotation = Eigen::Quaterniond(cam_from_world);
-  camera.cam_from_world.translation = -cam_from_world * centre;
-  return camera;
-}
-
 TEST(DepthReal, HerzJesusPairsAgreeWhereTheyOverlap) {
   PG_REQUIRE_REAL_DATA(dir, "multiview/strecha/Herz-Jesus-P8");
   const double scale = 0.25;
+  const pg::CameraSet truth = pg::import_strecha_cameras(dir / "gt_dense_cameras", dir / "images", scale);
   std::vector<pg::Camera> cameras;
   std::vector<cv::Mat> images;
   for (const char* id : {"0000", "0001", "0002"}) {
-    const std::string name = std::string(id) + ".jpg";
-    cameras.push_back(
-        pg::scale_camera(read_strecha_camera(dir / "gt_dense_cameras" / (name + ".camera"), id), scale));
+    ASSERT_NE(truth.find(id), nullptr) << id;
+    cameras.push_back(*truth.find(id));
     cv::Mat image;
-    cv::resize(pg::read_image(dir / "images" / name), image, {cameras.back().width, cameras.back().height}, 0,
+    cv::resize(pg::read_image(cameras.back().image), image, {cameras.back().width, cameras.back().height}, 0,
                0, cv::INTER_AREA);
     images.push_back(image);
   }

@@ -206,7 +206,7 @@ TEST(DepthGeometry, GridMeshFacesTheCameraAndSkipsInvalidPixels) {
 
 TEST(DepthGeometry, ScaledCameraKeepsPixelCentresConsistent) {
   const pg::Camera c = look_at_camera("c", {0, 0, 0}, {0, 0, 1}, 320, 240, 300);
-  const pg::Camera half = pg::scale_camera(c, 0.5);
+  const pg::Camera half = pg::resized_camera(c, 0.5);
   EXPECT_EQ(half.width, 160);
   Eigen::Vector2d full_pixel, half_pixel;
   c.project(Eigen::Vector3d(0.3, -0.2, 2), full_pixel);

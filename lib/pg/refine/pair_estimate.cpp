@@ -49,7 +49,7 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 
 RefineViewState make_view_state(const RefineView& view, double scale) {
   RefineViewState state;
-  state.camera = scaled_camera(view.camera, scale);
+  state.camera = resized_camera(view.camera, scale);
   const cv::Size size(state.camera.width, state.camera.height);
   cv::Mat1f gray = to_float_gray(view.image);
   if (gray.size() != size) {

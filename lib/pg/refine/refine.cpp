@@ -68,20 +68,6 @@ FlowOptions refine_flow_options(const std::string& preset) {
   return flow;
 }
 
-Camera scaled_camera(const Camera& camera, double factor) {
-  Camera c = camera;
-  c.width = std::max(1, int(std::lround(camera.width * factor)));
-  c.height = std::max(1, int(std::lround(camera.height * factor)));
-  const double sx = double(c.width) / camera.width, sy = double(c.height) / camera.height;
-  if (camera.model != CameraModel::equirectangular) {
-    c.intrinsics.fx *= sx;
-    c.intrinsics.fy *= sy;
-    c.intrinsics.cx = (camera.intrinsics.cx + 0.5) * sx - 0.5;
-    c.intrinsics.cy = (camera.intrinsics.cy + 0.5) * sy - 0.5;
-  }
-  return c;
-}
-
 bool camera_sees_mesh(const Mesh& mesh, const Camera& camera) {
   for (const auto& p : mesh.positions) {
     Eigen::Vector2d pixel;

@@ -127,7 +127,4 @@ std::vector<ViewPair> select_view_pairs(const Mesh& mesh, const std::vector<Came
 // Whether any vertex of `mesh` lies in front of `camera` and inside its image.
 bool camera_sees_mesh(const Mesh& mesh, const Camera& camera);
 
-// The camera of images resized by `factor` (pixel centres map as (x + 0.5) * factor - 0.5).
-Camera scaled_camera(const Camera& camera, double factor);
-
 }  // namespace pg

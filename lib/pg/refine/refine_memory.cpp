@@ -22,7 +22,7 @@ std::uint64_t refine_memory_bytes(const Mesh& mesh, const std::vector<Camera>& v
       2 * mesh_bytes(mesh) + vertices * refine_bytes_per_vertex + faces * refine_bytes_per_face;
   std::uint64_t largest_pair = 0;
   for (const Camera& camera : views) {
-    const Camera working = scaled_camera(camera, options.scale);
+    const Camera working = resized_camera(camera, options.scale);
     const cv::Size size(working.width, working.height);
     const std::uint64_t full = std::uint64_t(camera.width) * std::uint64_t(camera.height);
     const std::uint64_t pixels = std::uint64_t(size.area());

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <opencv2/imgproc.hpp>
 
+#include "pg/eval/truth_import.h"
 #include "pg/flow/flow.h"
 #include "pg/geometry/triangulation.h"
 #include "pg/image/image_io.h"
@@ -17,33 +18,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// A Strecha `.camera` file: K (3 lines), distortion, R (camera to world, 3 lines), centre C, size.
-pg::Camera read_strecha_camera(const fs::path& file, const std::string& id) {
-  std::ifstream in(file);
-  double k[9], distortion[3], r[9], c[3];
-  int width = 0, height = 0;
-  for (double& v : k) in >> v;
-  for (double& v : distortion) in >> v;
-  for (double& v : r) in >> v;
-  for (double& v : c) in >> v;
-  in >> width >> height;
-  EXPECT_TRUE(in) << file;
-  pg::Camera camera;
-  camera.id = id;
-  camera.width = width;
-  camera.height = height;
-  camera.intrinsics = {k[0], k[4], k[2], k[5]};
-  const Eigen::Matrix3d world_from_cam = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(r);
-  camera.cam_from_world.rotation = Eigen::Quaterniond(world_from_cam.transpose());
-  camera.cam_from_world.translation = -(world_from_cam.transpose() * Eigen::Vector3d(c[0], c[1], c[2]));
-  return camera;
-}
-
 // A coarse grid mesh of what `reference` sees, from the flow to `other` at low resolution.
 pg::Mesh coarse_mesh(const pg::RefineView& reference, const pg::RefineView& other, int step) {
   const double scale = 384.0 / reference.camera.width;
-  const pg::Camera ref = pg::scaled_camera(reference.camera, scale),
-                   oth = pg::scaled_camera(other.camera, scale);
+  const pg::Camera ref = pg::resized_camera(reference.camera, scale),
+                   oth = pg::resized_camera(other.camera, scale);
   cv::Mat ref_image, oth_image;
   cv::resize(pg::to_float_gray(reference.image), ref_image, cv::Size(ref.width, ref.height), 0, 0,
              cv::INTER_AREA);
@@ -86,11 +65,12 @@ pg::Mesh coarse_mesh(const pg::RefineView& reference, const pg::RefineView& othe
 
 TEST(RefineReal, HerzJesusPhotometricErrorImprovesOnEveryPair) {
   PG_REQUIRE_REAL_DATA(folder, "multiview/strecha/Herz-Jesus-P8");
+  const pg::CameraSet truth = pg::import_strecha_cameras(folder / "gt_dense_cameras", folder / "images");
   std::vector<pg::RefineView> views;
   for (const std::string name : {"0003", "0004", "0005"}) {
-    const fs::path image = folder / "images" / (name + ".jpg");
-    views.push_back({read_strecha_camera(folder / "gt_dense_cameras" / (name + ".jpg.camera"), name),
-                     pg::read_image(image)});
+    ASSERT_NE(truth.find(name), nullptr) << name;
+    const pg::Camera& camera = *truth.find(name);
+    views.push_back({camera, pg::read_image(camera.image)});
     ASSERT_EQ(views.back().image.cols, views.back().camera.width);
   }
   const pg::Mesh coarse = coarse_mesh(views[1], views[0], 24);

@@ -270,7 +270,7 @@ TEST(Refine, ScaledCameraKeepsPixelCentres) {
   c.width = 640;
   c.height = 480;
   c.intrinsics = {500, 510, 319.5, 239.5};
-  const pg::Camera half = pg::scaled_camera(c, 0.5);
+  const pg::Camera half = pg::resized_camera(c, 0.5);
   EXPECT_EQ(half.width, 320);
   EXPECT_EQ(half.height, 240);
   EXPECT_DOUBLE_EQ(half.intrinsics.fx, 250);

@@ -10,8 +10,8 @@
 
 #include "pg/eval/camera_eval.h"
 #include "pg/eval/orientation_error.h"
+#include "pg/eval/truth_import.h"
 #include "pg/sfm/reconstruction.h"
-#include "pg/sfm/truth_import.h"
 #include "pg/testing/testing.h"
 #include "pg/track/correspondences.h"
 

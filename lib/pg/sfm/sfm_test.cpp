@@ -11,7 +11,6 @@
 #include "pg/sfm/bundle_adjustment.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/sfm_outputs.h"
-#include "pg/sfm/truth_import.h"
 #include "pg/testing/testing.h"
 
 namespace pg {
@@ -225,46 +224,6 @@ TEST(BundleAdjustment, RecoversPerturbedPosesAndPoints) {
   EXPECT_LT(summary.final_rms_px, 1e-4);
   for (std::size_t f = 0; f < poses.size(); ++f)
     for (int k = 0; k < 6; ++k) EXPECT_NEAR(poses[f][k], truth_poses[f][k], 1e-6) << f << " " << k;
-}
-
-TEST(TruthImport, MiddleburyParProjectsLikeTheFile) {
-  PG_REQUIRE_REAL_DATA(folder, "multiview/templeSparseRing");
-  const CameraSet set = import_middlebury_par(folder / "templeSR_par.txt");
-  ASSERT_EQ(set.cameras.size(), 16u);
-  const Camera& c = set.cameras[0];
-  EXPECT_EQ(c.id, "templeSR0001");
-  EXPECT_EQ(c.width, 640);
-  EXPECT_DOUBLE_EQ(c.intrinsics.fx, 1520.4);
-  EXPECT_DOUBLE_EQ(c.intrinsics.cy, 246.87);
-  EXPECT_NEAR(c.cam_from_world.translation.z(), 0.614604845959, 1e-12);
-  // The temple (README bounding box about (-0.05, 0, -0.06)..(0.1, 0.16, 0.06)) is in front of every camera.
-  for (const Camera& cam : set.cameras)
-    EXPECT_GT((cam.cam_from_world * Eigen::Vector3d(0.02, 0.08, 0)).z(), 0.3);
-}
-
-TEST(TruthImport, StrechaCamerasKeepTheCentre) {
-  PG_REQUIRE_REAL_DATA(folder, "multiview/strecha/Herz-Jesus-P8/gt_dense_cameras");
-  const CameraSet set = import_strecha_cameras(folder, "images");
-  ASSERT_EQ(set.cameras.size(), 8u);
-  const Camera& c = set.cameras[0];
-  EXPECT_EQ(c.id, "0000");
-  EXPECT_EQ(c.image, "images/0000.jpg");
-  EXPECT_EQ(c.width, 3072);
-  EXPECT_DOUBLE_EQ(c.intrinsics.fx, 2759.48);
-  EXPECT_NEAR((c.cam_from_world.centre() - Eigen::Vector3d(-6.71999, -14.2551, 0.279539)).norm(), 0, 1e-5);
-  const CameraSet half = import_strecha_cameras(folder, "images", 0.5);
-  EXPECT_EQ(half.cameras[0].width, 1536);
-  EXPECT_DOUBLE_EQ(half.cameras[0].intrinsics.fx, 2759.48 / 2);
-  EXPECT_DOUBLE_EQ(half.cameras[0].intrinsics.cx, (1520.69 + 0.5) / 2 - 0.5);
-}
-
-TEST(TruthImport, RejectsMalformedFiles) {
-  testing::TempDir dir;
-  testing::write_text(dir / "bad_par.txt", "2\nimg.png 1 0 0 0 1 0 0 0 1\n");
-  EXPECT_THROW(import_middlebury_par(dir / "bad_par.txt"), InputError);
-  testing::write_text(dir / "zero_par.txt", "1\nimg.png 1 0 0 0 1 0 0 0 1 2 0 0 0 1 0 0 0 1 0 0 0\n");
-  EXPECT_THROW(import_middlebury_par(dir / "zero_par.txt"), InputError);  // R is not a rotation
-  EXPECT_THROW(import_strecha_cameras(dir.path()), InputError);           // no .camera files
 }
 
 TEST(SfmOutputs, ScaleToDistanceSetsTheBaseline) {

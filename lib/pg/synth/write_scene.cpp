@@ -55,25 +55,11 @@ void record(const fs::path& path) {
 
 }  // namespace
 
-Camera scaled_camera(const Camera& camera, int factor) {
-  Camera c = camera;
-  c.width *= factor;
-  c.height *= factor;
-  if (c.model != CameraModel::equirectangular) {
-    double s = factor;
-    c.intrinsics.fx *= s;
-    c.intrinsics.fy *= s;
-    c.intrinsics.cx = (c.intrinsics.cx + 0.5) * s - 0.5;
-    c.intrinsics.cy = (c.intrinsics.cy + 0.5) * s - 0.5;
-  }
-  return c;
-}
-
 ViewRenderer::ViewRenderer(const Scene& scene, int supersample)
     : scene_(scene), supersample_(supersample), face_normals_(face_normals(scene.mesh)) {}
 
 RenderedView ViewRenderer::render(const Camera& camera) {
-  Camera fine = scaled_camera(camera, supersample_);
+  Camera fine = resized_camera(camera, supersample_);
   if (!fine_rays_.matches(fine)) fine_rays_ = RayTable(fine);
   renderer_.render(scene_.mesh, fine, fine_rays_, RenderOptions{}, fine_buffers_);
   const RenderBuffers& buffers = fine_buffers_;
@@ -191,15 +177,15 @@ void write_scene(const Scene& scene, const fs::path& folder, const WriteOptions&
   }
   // cameras.json last: a Make rule that depends on it sees a complete scene folder.
   nlohmann::ordered_json manifest = {{"format", "pg-synth-scene"},
-                             {"version", 1},
-                             {"provenance", to_json(Provenance::current())},
-                             {"scene", scene.name},
-                             {"units", "metres"},
-                             {"triangles", scene.mesh.faces.size()},
-                             {"views", cameras.cameras.size()},
-                             {"extras", scene.extras},
-                             {"truth_mesh", "mesh.ply"},
-                             {"cameras", "cameras.json"}};
+                                     {"version", 1},
+                                     {"provenance", to_json(Provenance::current())},
+                                     {"scene", scene.name},
+                                     {"units", "metres"},
+                                     {"triangles", scene.mesh.faces.size()},
+                                     {"views", cameras.cameras.size()},
+                                     {"extras", scene.extras},
+                                     {"truth_mesh", "mesh.ply"},
+                                     {"cameras", "cameras.json"}};
   if (scene.initial_mesh) manifest["initial_mesh"] = "initial.ply";
   write_json_file(folder / "scene.json", manifest);
   record(folder / "scene.json");

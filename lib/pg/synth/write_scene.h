@@ -33,10 +33,6 @@ struct RenderedView {
   cv::Mat depth;  // CV_32F at pixel centres: z for perspective cameras, range for panoramas; NaN = empty
 };
 
-// The same camera sampled `factor` times more densely: pixel (u, v) of the original covers
-// [factor*u, factor*u + factor) of the result, consistently with "pixel centres at integers".
-Camera scaled_camera(const Camera& camera, int factor);
-
 // Renders views of one scene, reusing ray tables across views with the same intrinsics and size.
 class ViewRenderer {
  public:

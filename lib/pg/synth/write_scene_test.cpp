@@ -78,7 +78,7 @@ TEST(WriteScene, ScaledCameraKeepsPixelCentres) {
   c.height = 8;
   c.intrinsics = {100, 100, 4.5, 3.5};
   c.distortion.k1 = -0.1;
-  pg::Camera s = pg::synth::scaled_camera(c, 4);
+  pg::Camera s = pg::resized_camera(c, 4);
   // The centre of original pixel (u, v) is the centre of the 4x4 block starting at 4u.
   Eigen::Vector3d a = c.unproject({2, 3}), b = s.unproject({4 * 2 + 1.5, 4 * 3 + 1.5});
   EXPECT_NEAR((a - b).norm(), 0, 1e-12);

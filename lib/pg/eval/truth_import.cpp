@@ -1,4 +1,4 @@
-#include "pg/sfm/truth_import.h"
+#include "pg/eval/truth_import.h"
 
 #include <algorithm>
 #include <cmath>
@@ -36,17 +36,6 @@ std::vector<double> read_numbers(std::istream& in, std::size_t count, const std:
 }
 
 }  // namespace
-
-Camera scale_camera_images(const Camera& camera, double factor) {
-  Camera c = camera;
-  c.width = static_cast<int>(std::lround(camera.width * factor));
-  c.height = static_cast<int>(std::lround(camera.height * factor));
-  c.intrinsics.fx *= factor;
-  c.intrinsics.fy *= factor;
-  c.intrinsics.cx = (camera.intrinsics.cx + 0.5) * factor - 0.5;
-  c.intrinsics.cy = (camera.intrinsics.cy + 0.5) * factor - 0.5;
-  return c;
-}
 
 CameraSet import_middlebury_par(const std::filesystem::path& par_file) {
   std::ifstream in(par_file);
@@ -109,7 +98,7 @@ CameraSet import_strecha_cameras(const std::filesystem::path& folder,
       throw InputError(path, "image size out of range");
     c.width = static_cast<int>(v[24]);
     c.height = static_cast<int>(v[25]);
-    set.cameras.push_back(image_scale == 1.0 ? c : scale_camera_images(c, image_scale));
+    set.cameras.push_back(image_scale == 1.0 ? c : resized_camera(c, image_scale));
   }
   return set;
 }

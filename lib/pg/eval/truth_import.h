@@ -19,7 +19,4 @@ CameraSet import_middlebury_par(const std::filesystem::path& par_file);
 CameraSet import_strecha_cameras(const std::filesystem::path& folder,
                                  const std::filesystem::path& image_folder = {}, double image_scale = 1.0);
 
-// The same camera as seen in images resized by `factor` (pixel centres map as (x + 0.5) * factor - 0.5).
-Camera scale_camera_images(const Camera& camera, double factor);
-
 }  // namespace pg
