@@ -274,5 +274,57 @@ TEST(Camera, InImageAndK) {
   EXPECT_LT(((k * p).hnormalized() - pixel).norm(), 1e-12);
 }
 
+// Pixel centres at integers: the centre of original pixel (u, v) is the centre of the f x f block
+// starting at f u after enlarging, and a projected point lands at (x + 0.5) s - 0.5 after shrinking.
+TEST(ResizedCamera, KeepsPixelCentres) {
+  Camera c;
+  c.width = 10;
+  c.height = 8;
+  c.intrinsics = {100, 100, 4.5, 3.5};
+  c.distortion.k1 = -0.1;
+  const Camera fine = resized_camera(c, 4);
+  EXPECT_EQ(fine.width, 40);
+  EXPECT_NEAR((c.unproject({2, 3}) - fine.unproject({4 * 2 + 1.5, 4 * 3 + 1.5})).norm(), 0, 1e-12);
+
+  c.width = 640;
+  c.height = 480;
+  c.intrinsics = {500, 510, 319.5, 239.5};
+  const Camera half = resized_camera(c, 0.5);
+  EXPECT_EQ(half.width, 320);
+  EXPECT_EQ(half.height, 240);
+  EXPECT_DOUBLE_EQ(half.intrinsics.fx, 250);
+  EXPECT_DOUBLE_EQ(half.intrinsics.fy, 255);
+  EXPECT_DOUBLE_EQ(half.intrinsics.cx, 159.5);
+  EXPECT_DOUBLE_EQ(half.intrinsics.cy, 119.5);
+  Eigen::Vector2d full_pixel, half_pixel;
+  ASSERT_TRUE(c.project(Eigen::Vector3d(0.3, -0.2, 2), full_pixel));
+  ASSERT_TRUE(half.project(Eigen::Vector3d(0.3, -0.2, 2), half_pixel));
+  EXPECT_NEAR(half_pixel.x(), (full_pixel.x() + 0.5) * 0.5 - 0.5, 1e-9);
+  EXPECT_NEAR(half_pixel.y(), (full_pixel.y() + 0.5) * 0.5 - 0.5, 1e-9);
+}
+
+// An odd size rounds, and the intrinsics follow the sizes' actual ratio; an equirectangular camera
+// only changes size (its projection depends on the size alone), and nothing shrinks below a pixel.
+TEST(ResizedCamera, OddSizesEquirectangularAndTinyFactors) {
+  Camera c;
+  c.width = 101;
+  c.height = 75;
+  c.intrinsics = {90, 90, 50, 37};
+  const Camera third = resized_camera(c, 1.0 / 3);
+  EXPECT_EQ(third.width, 34);
+  EXPECT_EQ(third.height, 25);
+  EXPECT_DOUBLE_EQ(third.intrinsics.fx, 90.0 * 34 / 101);
+  EXPECT_DOUBLE_EQ(third.intrinsics.fy, 90.0 * 25 / 75);
+  Camera pano;
+  pano.model = CameraModel::equirectangular;
+  pano.width = 1024;
+  pano.height = 512;
+  const Camera small = resized_camera(pano, 0.5);
+  EXPECT_EQ(small.width, 512);
+  EXPECT_EQ(small.height, 256);
+  EXPECT_EQ(small.intrinsics.fx, pano.intrinsics.fx);
+  EXPECT_EQ(resized_camera(c, 1e-6).width, 1);
+}
+
 }  // namespace
 }  // namespace pg

@@ -204,15 +204,4 @@ TEST(DepthGeometry, GridMeshFacesTheCameraAndSkipsInvalidPixels) {
   EXPECT_NEAR(cloud.positions[4].z(), 2.f, 1e-6);
 }
 
-TEST(DepthGeometry, ScaledCameraKeepsPixelCentresConsistent) {
-  const pg::Camera c = look_at_camera("c", {0, 0, 0}, {0, 0, 1}, 320, 240, 300);
-  const pg::Camera half = pg::resized_camera(c, 0.5);
-  EXPECT_EQ(half.width, 160);
-  Eigen::Vector2d full_pixel, half_pixel;
-  c.project(Eigen::Vector3d(0.3, -0.2, 2), full_pixel);
-  half.project(Eigen::Vector3d(0.3, -0.2, 2), half_pixel);
-  EXPECT_NEAR(half_pixel.x(), (full_pixel.x() + 0.5) * 0.5 - 0.5, 1e-9);
-  EXPECT_NEAR(half_pixel.y(), (full_pixel.y() + 0.5) * 0.5 - 0.5, 1e-9);
-}
-
 }  // namespace

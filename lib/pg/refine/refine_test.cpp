@@ -265,17 +265,4 @@ TEST(Refine, RejectsBadPairsOptionsAndMasks) {
   EXPECT_THROW(pg::refine_mesh(initial, turned, {{0, 1}}, {}, test_options(1)), pg::FailedError);
 }
 
-TEST(Refine, ScaledCameraKeepsPixelCentres) {
-  pg::Camera c;
-  c.width = 640;
-  c.height = 480;
-  c.intrinsics = {500, 510, 319.5, 239.5};
-  const pg::Camera half = pg::resized_camera(c, 0.5);
-  EXPECT_EQ(half.width, 320);
-  EXPECT_EQ(half.height, 240);
-  EXPECT_DOUBLE_EQ(half.intrinsics.fx, 250);
-  EXPECT_DOUBLE_EQ(half.intrinsics.cx, 159.5);
-  EXPECT_DOUBLE_EQ(half.intrinsics.cy, 119.5);
-}
-
 }  // namespace

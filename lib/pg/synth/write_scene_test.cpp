@@ -72,18 +72,6 @@ TEST(WriteScene, PanoramaRangeMapsLieOnTheTrueMesh) {
   EXPECT_EQ(cv::countNonZero(depth.depth == depth.depth), 128 * 64);
 }
 
-TEST(WriteScene, ScaledCameraKeepsPixelCentres) {
-  pg::Camera c;
-  c.width = 10;
-  c.height = 8;
-  c.intrinsics = {100, 100, 4.5, 3.5};
-  c.distortion.k1 = -0.1;
-  pg::Camera s = pg::resized_camera(c, 4);
-  // The centre of original pixel (u, v) is the centre of the 4x4 block starting at 4u.
-  Eigen::Vector3d a = c.unproject({2, 3}), b = s.unproject({4 * 2 + 1.5, 4 * 3 + 1.5});
-  EXPECT_NEAR((a - b).norm(), 0, 1e-12);
-}
-
 TEST(WriteScene, ManifestStartsWithFormatVersionAndProvenance) {
   pg::testing::TempDir dir;
   pg::synth::SceneOptions o;
