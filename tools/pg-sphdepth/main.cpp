@@ -158,6 +158,9 @@ int main(int argc, char** argv) {
   app.add_option("--mesh-format", o.mesh_format, "ply (default) or obj");
   app.add_flag("--keep-all", o.depth.keep_all,
                "keep every triangulated range; rejections only zero the confidence");
+  app.add_flag("--fill-occlusions", o.depth.fill_occlusions,
+               "pixels failing the forward-backward check take their meridian's background range (half "
+               "confidence) instead of being invalid");
   return frame.run(argc, argv, [&] {
     if (o.mesh_format != "ply" && o.mesh_format != "obj")
       throw pg::UsageError("--mesh-format must be ply or obj");
@@ -197,11 +200,11 @@ int main(int argc, char** argv) {
     plane_options.baseline = pair.baseline;
     plane_options.seed = frame.seed();
     const pg::RoomPlanes planes = pg::fit_room_planes(result.map, plane_options);
-    pg::log::info(pg::str(stem, ": ", result.valid, " valid pixels (", 100 * result.valid_fraction(),
-                          "%); rejected: pole band ", result.pole_band, ", inconsistent ",
-                          result.inconsistent, ", untriangulated ", result.untriangulated, ", too far ",
-                          result.too_far, "; mesh ", mesh.vertex_count(), " vertices, ", mesh.face_count(),
-                          " triangles"));
+    pg::log::info(pg::str(stem, ": ", result.valid, " valid pixels (", 100 * result.valid_fraction(), "%, ",
+                          result.filled, " filled); rejected: pole band ", result.pole_band,
+                          ", inconsistent ", result.inconsistent, ", untriangulated ", result.untriangulated,
+                          ", too far ", result.too_far, "; mesh ", mesh.vertex_count(), " vertices, ",
+                          mesh.face_count(), " triangles"));
     if (planes.floor)
       pg::log::info(pg::str("floor plane: ", planes.floor->offset, " m below the centre, fit rms ",
                             planes.floor->rms, " m over ", planes.floor->inliers, " points"));
@@ -210,6 +213,8 @@ int main(int argc, char** argv) {
     report.set_metric("height", result.map.depth.rows);
     report.set_metric("baseline", pair.baseline.norm());
     report.set_metric("valid_fraction", result.valid_fraction());
+    if (o.depth.fill_occlusions)
+      report.set_metric("filled_fraction", double(result.filled) / result.map.depth.total());
     report.set_metric("rejected", {{"pole_band", result.pole_band},
                                    {"inconsistent", result.inconsistent},
                                    {"untriangulated", result.untriangulated},

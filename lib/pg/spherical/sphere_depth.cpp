@@ -122,13 +122,16 @@ Rectified rectify(const SpherePair& pair, const Eigen::Matrix3d& rect_from_refer
           prepare(pair.other, rect_from_reference * pair.other_from_reference.transpose())};
 }
 
-// Disparity along the meridians in rectified pixels (downwards, away from the north pole), and the
-// forward-backward error; both cropped back to the rectified size.
+// Disparity along the meridians in rectified pixels (downwards, away from the north pole), the
+// forward-backward error, and the pixels whose disparity is their meridian's background instead
+// (nonzero; with fill_occlusions only); all cropped back to the rectified size.
 struct MeridianFlow {
   cv::Mat1f along, fb_error;
+  cv::Mat1b filled;
 };
 
-MeridianFlow solve_meridian_flow(const Rectified& rect, const FlowOptions& flow, int padding) {
+MeridianFlow solve_meridian_flow(const Rectified& rect, const SphereDepthOptions& options,
+                                 const FlowOptions& flow, int padding) {
   const cv::Mat reference = pad_longitude(rect.reference, padding);
   const cv::Mat other = pad_longitude(rect.other, padding);
   const auto meridian_field = [&](float direction) {
@@ -142,8 +145,26 @@ MeridianFlow solve_meridian_flow(const Rectified& rect, const FlowOptions& flow,
   const EpipolarFlow backward = compute_epipolar_flow(other, reference, meridian_field(-1.0f), flow);
   const cv::Rect crop(padding, 0, rect.reference.cols, rect.reference.rows);
   MeridianFlow result;
-  result.along = forward.along(crop).clone();
-  result.fb_error = forward_backward_error(forward.flow(crop).clone(), backward.flow(crop).clone());
+  result.fb_error = forward_backward_error(forward.flow, backward.flow);
+  result.filled = cv::Mat1b(reference.size(), uchar(0));
+  cv::Mat1f along = forward.along;
+  if (options.fill_occlusions) {
+    cv::Mat1b occluded = occlusion_mask(result.fb_error, forward.flow, options.max_fb_error, 0);
+    const int band = static_cast<int>(std::lround(options.pole_band_deg / 180 * reference.rows));
+    occluded.rowRange(0, band).setTo(255);
+    occluded.rowRange(reference.rows - band, reference.rows).setTo(255);
+    const cv::Mat2f filled = fill_occlusions_along_lines(forward.flow, occluded, meridian_field(1.0f));
+    along = cv::Mat1f(reference.size());
+    for (int y = 0; y < reference.rows; ++y)
+      for (int x = 0; x < reference.cols; ++x) {
+        along(y, x) = filled(y, x)[1];  // the field's base is 0 and its direction (0, 1)
+        // Pixels that found no background keep their flow, and their failed check.
+        result.filled(y, x) = occluded(y, x) && filled(y, x) != forward.flow(y, x) ? 255 : 0;
+      }
+  }
+  result.along = along(crop).clone();
+  result.fb_error = result.fb_error(crop).clone();
+  result.filled = result.filled(crop).clone();
   return result;
 }
 
@@ -178,7 +199,7 @@ SphereDepthResult compute_sphere_depth(const SpherePair& pair, const SphereDepth
   const Clock::time_point flow_start = Clock::now();
   const Rectified rect = rectify(pair, rect_from_reference, size);
   const int padding = static_cast<int>(std::lround(options.seam_padding * size.width));
-  const MeridianFlow meridian = solve_meridian_flow(rect, flow, padding);
+  const MeridianFlow meridian = solve_meridian_flow(rect, options, flow, padding);
   SphereDepthResult result;
   result.flow_seconds = seconds_since(flow_start);
 
@@ -195,7 +216,7 @@ SphereDepthResult compute_sphere_depth(const SpherePair& pair, const SphereDepth
   cv::Mat1f depth(size, nan), confidence(size, 0.0f);
   result.disparity = cv::Mat1f(size, nan);
   enum Outcome : std::uint8_t { valid, pole, inconsistent, untriangulated, too_far };
-  cv::Mat1b outcome(size);
+  cv::Mat1b outcome(size), filled_pixels(size, uchar(0));
   tbb::parallel_for(tbb::blocked_range<int>(0, size.height), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y != rows.end(); ++y) {
       for (int x = 0; x < size.width; ++x) {
@@ -205,6 +226,10 @@ SphereDepthResult compute_sphere_depth(const SpherePair& pair, const SphereDepth
         const Eigen::Vector2d rect_pixel = equirect_pixel_from_direction(size.width, size.height, ray);
         const double gamma = sample_wrapped(meridian.along, rect_pixel) * radians_per_pixel;
         const double fb_error = sample_wrapped(meridian.fb_error, rect_pixel);
+        // Nearest rectified pixel: a filled disparity replaces the check.
+        const int rx = (static_cast<int>(std::lround(rect_pixel.x())) % size.width + size.width) % size.width;
+        const int ry = std::clamp(static_cast<int>(std::lround(rect_pixel.y())), 0, size.height - 1);
+        const bool filled = meridian.filled(ry, rx) != 0;
         const double range = range_from_angular_disparity(baseline, theta, gamma);
         result.disparity(y, x) = static_cast<float>(gamma);
         Outcome o = valid;
@@ -212,14 +237,16 @@ SphereDepthResult compute_sphere_depth(const SpherePair& pair, const SphereDepth
           o = pole;
         else if (!std::isfinite(range))
           o = untriangulated;
-        else if (!(fb_error <= options.max_fb_error))
+        else if (!filled && !(fb_error <= options.max_fb_error))
           o = inconsistent;
         else if (options.max_range > 0 && range > options.max_range)
           o = too_far;
         outcome(y, x) = o;
         if (o == valid) {
           depth(y, x) = static_cast<float>(range);
-          confidence(y, x) = static_cast<float>(std::sin(theta) * (1 - fb_error / options.max_fb_error));
+          const double consistency = filled ? 0.5 : 1 - fb_error / options.max_fb_error;
+          confidence(y, x) = static_cast<float>(std::sin(theta) * consistency);
+          if (filled) filled_pixels(y, x) = 255;
         } else if (options.keep_all && std::isfinite(range)) {
           depth(y, x) = static_cast<float>(range);
         }
@@ -228,6 +255,7 @@ SphereDepthResult compute_sphere_depth(const SpherePair& pair, const SphereDepth
   });
   map.depth = depth;
   map.confidence = confidence;
+  result.filled = static_cast<std::size_t>(cv::countNonZero(filled_pixels));
   for (int y = 0; y < size.height; ++y) {
     for (int x = 0; x < size.width; ++x) {
       switch (outcome(y, x)) {

@@ -29,6 +29,11 @@ struct SphereDepthOptions {
   double max_range = 0.0;
   // Keep every triangulated range; rejections only zero the confidence.
   bool keep_all = false;
+  // Pixels failing the forward-backward check take the background of their meridian (the smaller
+  // disparity of the nearest consistent pixels either way along it, fill_occlusions_along_lines): a
+  // point hidden from the other centre lies behind the nearer surface beside it. The pole bands are
+  // never a source. Filled pixels carry half a consistent pixel's confidence.
+  bool fill_occlusions = false;
 
   void check() const;  // throws UsageError naming the first invalid field
 };
@@ -45,7 +50,8 @@ struct SpherePair {
 struct SphereDepthResult {
   DepthMap map;         // spherical_range in the reference camera (scaled size), confidence in [0, 1]
   cv::Mat1f disparity;  // angular disparity (radians) per output pixel, NaN where not solved
-  std::size_t valid = 0, pole_band = 0, inconsistent = 0, untriangulated = 0, too_far = 0;
+  // `filled`: valid pixels that failed the forward-backward check and took their meridian's background.
+  std::size_t valid = 0, filled = 0, pole_band = 0, inconsistent = 0, untriangulated = 0, too_far = 0;
   double flow_seconds = 0, triangulation_seconds = 0;
   double valid_fraction() const { return map.depth.empty() ? 0.0 : double(valid) / map.depth.total(); }
 };
