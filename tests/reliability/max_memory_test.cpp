@@ -19,7 +19,8 @@ class MaxMemoryOfLargeStages : public ::testing::TestWithParam<StageRun> {};
 std::vector<StageRun> stages_that_can_blow_up() {
   std::vector<StageRun> runs;
   for (const StageRun& run : pg::reliability::stage_runs())
-    if (run.name == "depth" || run.name == "merge" || run.name == "refine") runs.push_back(run);
+    if (run.name == "depth" || run.name == "merge" || run.name == "refine" || run.name == "sphdepth")
+      runs.push_back(run);
   return runs;
 }
 

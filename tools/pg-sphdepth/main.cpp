@@ -10,11 +10,13 @@
 #include "pg/core/log.h"
 #include "pg/core/provenance.h"
 #include "pg/core/run_report.h"
+#include "pg/flow/flow_memory.h"
 #include "pg/image/depth_exr.h"
 #include "pg/image/image_io.h"
 #include "pg/mesh/mesh_io.h"
 #include "pg/spherical/room_planes.h"
 #include "pg/spherical/sphere_depth.h"
+#include "pg/spherical/sphere_depth_memory.h"
 #include "pg/spherical/sphere_mesh.h"
 
 namespace fs = std::filesystem;
@@ -38,6 +40,17 @@ Eigen::Vector3d parse_offset(const std::string& text) {
   if (offset.norm() == 0)
     throw pg::UsageError("--offset is zero: the panoramas must be shot from different points");
   return offset;
+}
+
+// --max-memory: the run's estimate from the reference panorama's size (its header, or the camera's
+// size), before either panorama is decoded.
+void require_memory(const fs::path& reference, std::optional<cv::Size> size, const Options& o) {
+  if (!size) size = pg::peek_image_size(reference);
+  if (!size) return;  // a format whose header pg cannot read: decoding checks its size
+  const std::uint64_t bytes = pg::sphere_depth_memory_bytes(
+      *size, pg::decoded_image_bytes_per_pixel(reference), pg::max_flow_channels, o.depth);
+  pg::cli::require_memory(bytes, pg::str("spherical depth of ", size->width, "x", size->height,
+                                         " panoramas at scale ", o.depth.scale));
 }
 
 cv::Mat read_panorama(const fs::path& path) {
@@ -88,6 +101,7 @@ pg::SpherePair pair_from_cameras(pg::cli::Frame& frame, const Options& o, std::s
   const fs::path reference_path = image_path(o.cameras, reference), other_path = image_path(o.cameras, other);
   frame.input(reference_path);
   frame.input(other_path);
+  require_memory(reference_path, cv::Size(reference.width, reference.height), o);
   pg::SpherePair pair;
   pair.reference = read_panorama(reference_path);
   pair.other = read_panorama(other_path);
@@ -115,6 +129,7 @@ pg::SpherePair pair_from_images(pg::cli::Frame& frame, const Options& o, std::st
   const Eigen::Vector3d offset = parse_offset(o.offset);
   frame.input(o.reference);
   frame.input(o.other);
+  require_memory(o.reference, std::nullopt, o);
   pg::SpherePair pair;
   pair.reference = read_panorama(o.reference);
   pair.other = read_panorama(o.other);
