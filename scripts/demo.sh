@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Sets up, builds and runs scenario 2 on the built-in synthetic set end to end (pipelines/demo.mk):
-# pg-synth -> pg-calib (board) -> pg-track -> pg-depth -> pg-merge -> pg-refine -> pg-remesh, then
-# prints the final mesh's accuracy against the scene's true mesh and the time of every job.
+# pg-synth -> pg-calib (board) -> pg-track -> pg-depth -> pg-merge -> pg-refine -> pg-remesh, and the
+# panorama pair (pg-synth room -> pg-sphdepth), then
+# prints the final mesh's accuracy against the scene's true mesh, the panorama's range accuracy and the
+# time of every job.
 # Usage: scripts/demo.sh [output folder, default demo-out] [make variables, e.g. DEMO_VIEWS=24]
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -1,7 +1,7 @@
 #!/bin/sh
-# Scenario 2 (pipelines/demo.mk) on a small synthetic set under make -j2: accuracy of the final mesh
-# and of the tracked cameras against the scene's truth, a second make has nothing to do, and a
-# touched input re-runs only what depends on it.
+# Scenario 2 (pipelines/demo.mk) on a small synthetic set under make -j2: accuracy of the final mesh,
+# of the tracked cameras and of the panorama pair's ranges against the scene's truth, a second make
+# has nothing to do, and a touched input re-runs only what depends on it.
 # Usage: scenario2_test.sh TOOLS_DIR WORK_DIR   (from the repository root)
 . "$(dirname "$0")/lib.sh"
 bin="$1"; work="$2"
@@ -17,6 +17,9 @@ r="$work/reports/eval-mesh-remeshed.report.json"
 check_below "final mesh accuracy median (m)" "$(metric "$r" accuracy_median)" 0.05
 check_below "final mesh accuracy p95 (m)" "$(metric "$r" accuracy_p95)" 0.25
 check_above "final mesh F-score at 10 cm" "$(metric "$r" fscore_0.1)" 0.5
+# The demo's panorama pair: pg-sphdepth's ranges of the room within 2% for half the pixels.
+check_below "panorama range error median" "$(metric "$work/reports/eval-panorama-range.report.json" relative_error_median)" 0.02
+check_above "panorama range coverage" "$(metric "$work/reports/eval-panorama-range.report.json" coverage)" 0.85
 # Refinement must not make the merged mesh worse.
 merged=$(metric "$work/reports/eval-mesh-merged.report.json" accuracy_mean)
 check_below "refined accuracy mean vs merged" "$(metric "$work/reports/eval-mesh-refined.report.json" accuracy_mean)" \
