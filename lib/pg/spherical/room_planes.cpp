@@ -59,6 +59,7 @@ struct WallPoint {
   Eigen::Vector2d ground;
   double tolerance = 0;
   double area = 0;
+  double weight() const { return 1 / (tolerance * tolerance); }  // in least squares
 };
 
 // A vertical plane as a line n . g + c = 0 on the floor's plane.
@@ -68,21 +69,18 @@ struct GroundLine {
   bool holds(const WallPoint& p) const { return std::abs(normal.dot(p.ground) + offset) < p.tolerance; }
 };
 
-// Least squares line through the points `member` marks, each weighted by 1 / tolerance^2.
+// Least squares line through the points `member` marks, each weighted by its weight().
 GroundLine fit_ground_line(const std::vector<WallPoint>& points, const std::vector<bool>& member) {
   double total = 0;
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
   for (std::size_t i = 0; i < points.size(); ++i)
-    if (member[i]) {
-      const double w = 1 / (points[i].tolerance * points[i].tolerance);
-      mean += w * points[i].ground, total += w;
-    }
+    if (member[i]) mean += points[i].weight() * points[i].ground, total += points[i].weight();
   mean /= total;
   Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
   for (std::size_t i = 0; i < points.size(); ++i)
     if (member[i]) {
       const Eigen::Vector2d d = points[i].ground - mean;
-      scatter += d * d.transpose() / (points[i].tolerance * points[i].tolerance);
+      scatter += points[i].weight() * d * d.transpose();
     }
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(scatter);
   const Eigen::Vector2d normal = solver.eigenvectors().col(0).normalized();
@@ -119,10 +117,8 @@ double largest_wall(const std::vector<WallPoint>& points, const std::vector<bool
     if (direction.norm() < 4 * points[i].tolerance) continue;  // too short to give a direction
     const Eigen::Vector2d normal = Eigen::Vector2d(-direction.y(), direction.x()).normalized();
     const GroundLine line{normal, -normal.dot(points[i].ground)};
-    double area = 0;
-    for (std::size_t k = 0; k < points.size(); ++k)
-      if (!taken[k] && line.holds(points[k])) area += points[k].area;
-    if (area > best_area) best_area = area, best = line;
+    if (const double area = collect(points, taken, line, trial); area > best_area)
+      best_area = area, best = line;
   }
   if (best_area == 0) return 0;
   double area = collect(points, taken, best, member);
@@ -225,7 +221,7 @@ RoomPlanes fit_room_planes(const DepthMap& map, const RoomPlaneOptions& options)
     for (std::size_t i = 0; i < candidates.size(); ++i)
       if (member[i]) {
         points.push_back(candidates[i].point), taken[i] = true;
-        weights.push_back(1 / (candidates[i].tolerance * candidates[i].tolerance));
+        weights.push_back(candidates[i].weight());
       }
     planes.walls.push_back(fit_plane(points, weights));
   }

@@ -215,8 +215,9 @@ SphereDepthResult compute_sphere_depth(const SpherePair& pair, const SphereDepth
   map.camera.height = size.height;
   cv::Mat1f depth(size, nan), confidence(size, 0.0f);
   result.disparity = cv::Mat1f(size, nan);
-  enum Outcome : std::uint8_t { valid, pole, inconsistent, untriangulated, too_far };
-  cv::Mat1b outcome(size), filled_pixels(size, uchar(0));
+  // `filled`: valid with its meridian's background disparity.
+  enum Outcome : std::uint8_t { valid, filled, pole, inconsistent, untriangulated, too_far };
+  cv::Mat1b outcome(size);
   tbb::parallel_for(tbb::blocked_range<int>(0, size.height), [&](const tbb::blocked_range<int>& rows) {
     for (int y = rows.begin(); y != rows.end(); ++y) {
       for (int x = 0; x < size.width; ++x) {
@@ -229,7 +230,7 @@ SphereDepthResult compute_sphere_depth(const SpherePair& pair, const SphereDepth
         // Nearest rectified pixel: a filled disparity replaces the check.
         const int rx = (static_cast<int>(std::lround(rect_pixel.x())) % size.width + size.width) % size.width;
         const int ry = std::clamp(static_cast<int>(std::lround(rect_pixel.y())), 0, size.height - 1);
-        const bool filled = meridian.filled(ry, rx) != 0;
+        const bool background = meridian.filled(ry, rx) != 0;
         const double range = range_from_angular_disparity(baseline, theta, gamma);
         result.disparity(y, x) = static_cast<float>(gamma);
         Outcome o = valid;
@@ -237,16 +238,17 @@ SphereDepthResult compute_sphere_depth(const SpherePair& pair, const SphereDepth
           o = pole;
         else if (!std::isfinite(range))
           o = untriangulated;
-        else if (!filled && !(fb_error <= options.max_fb_error))
+        else if (!background && !(fb_error <= options.max_fb_error))
           o = inconsistent;
         else if (options.max_range > 0 && range > options.max_range)
           o = too_far;
+        else if (background)
+          o = filled;
         outcome(y, x) = o;
-        if (o == valid) {
+        if (o == valid || o == filled) {
           depth(y, x) = static_cast<float>(range);
-          const double consistency = filled ? 0.5 : 1 - fb_error / options.max_fb_error;
+          const double consistency = o == filled ? 0.5 : 1 - fb_error / options.max_fb_error;
           confidence(y, x) = static_cast<float>(std::sin(theta) * consistency);
-          if (filled) filled_pixels(y, x) = 255;
         } else if (options.keep_all && std::isfinite(range)) {
           depth(y, x) = static_cast<float>(range);
         }
@@ -255,12 +257,14 @@ SphereDepthResult compute_sphere_depth(const SpherePair& pair, const SphereDepth
   });
   map.depth = depth;
   map.confidence = confidence;
-  result.filled = static_cast<std::size_t>(cv::countNonZero(filled_pixels));
   for (int y = 0; y < size.height; ++y) {
     for (int x = 0; x < size.width; ++x) {
       switch (outcome(y, x)) {
         case valid:
           ++result.valid;
+          break;
+        case filled:
+          ++result.valid, ++result.filled;
           break;
         case pole:
           ++result.pole_band;
