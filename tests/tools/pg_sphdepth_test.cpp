@@ -254,8 +254,8 @@ TEST(PgSphdepth, BadInputIsRefusedWithClearErrors) {
 TEST(PgSphdepth, RealVerticalPairsGivePlanarFloorsAndWallsAtRightAngles) {
   PG_REQUIRE_REAL_DATA(data, "panorama/360sd-realworld");
   TempDir dir;
-  // The range maps stay beside the test binary for a person to look at.
-  const fs::path previews = fs::current_path() / "artifacts" / "360sd-realworld";
+  // The range maps stay in the build tree for a person to look at, wherever the test runs from.
+  const fs::path previews = pg::testing::bin_dir().parent_path() / "artifacts" / "360sd-realworld";
   fs::create_directories(previews);
   for (const std::string scene : {"hall", "room", "stairs"}) {
     const fs::path report_path = dir / (scene + ".json");
