@@ -1,48 +1,12 @@
 #include "pg/sfm/bundle_adjustment.h"
 
 #include <ceres/ceres.h>
-#include <ceres/rotation.h>
 
 #include <cmath>
 
+#include "pg/sfm/reprojection_cost.h"
+
 namespace pg {
-
-namespace {
-
-template <class T>
-void project(const T* pose, const T* intrinsics, double aspect, const T* point, T* pixel, T* depth) {
-  T p[3];
-  ceres::AngleAxisRotatePoint(pose, point, p);
-  p[0] += pose[3];
-  p[1] += pose[4];
-  p[2] += pose[5];
-  *depth = p[2];
-  const T x = p[0] / p[2], y = p[1] / p[2];
-  const T r2 = x * x + y * y;
-  const T d = T(1) + intrinsics[3] * r2 + intrinsics[4] * r2 * r2;
-  pixel[0] = intrinsics[0] * x * d + intrinsics[1];
-  pixel[1] = intrinsics[0] * aspect * y * d + intrinsics[2];
-}
-
-struct ReprojectionCost {
-  ReprojectionCost(const Eigen::Vector2d& observed, double aspect) : observed(observed), aspect(aspect) {}
-  template <class T>
-  bool operator()(const T* pose, const T* intrinsics, const T* point, T* residual) const {
-    T pixel[2], depth;
-    project(pose, intrinsics, aspect, point, pixel, &depth);
-    residual[0] = pixel[0] - observed.x();
-    residual[1] = pixel[1] - observed.y();
-    return true;
-  }
-  static ceres::CostFunction* create(const Eigen::Vector2d& observed, double aspect) {
-    return new ceres::AutoDiffCostFunction<ReprojectionCost, 2, 6, 5, 3>(
-        new ReprojectionCost(observed, aspect));
-  }
-  Eigen::Vector2d observed;
-  double aspect;
-};
-
-}  // namespace
 
 bool project_with_params(const PoseParams& pose, const IntrinsicParams& intrinsics, double aspect,
                          const Eigen::Vector3d& point, Eigen::Vector2d& pixel) {
@@ -64,7 +28,7 @@ BundleSummary bundle_adjust(BundleProblem& problem, const BundleOptions& options
   std::vector<bool> point_used(points.size(), false);
   for (const BundleObservation& o : problem.observations) {
     const int group = problem.frame_group[o.frame];
-    ceres_problem.AddResidualBlock(ReprojectionCost::create(o.pixel, problem.aspect[group]), &loss,
+    ceres_problem.AddResidualBlock(new ReprojectionCost(o.pixel, problem.aspect[group]), &loss,
                                    poses[o.frame].data(), intrinsics[group].data(), points[o.point].data());
     group_used[group] = frame_used[o.frame] = point_used[o.point] = true;
   }

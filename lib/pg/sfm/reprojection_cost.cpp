@@ -1,0 +1,80 @@
+#include "pg/sfm/reprojection_cost.h"
+
+#include <Eigen/Core>
+#include <limits>
+
+namespace pg {
+
+namespace {
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d s;
+  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return s;
+}
+
+// d(R(w) v)/dw for the angle-axis w (Gallego and Yezzi 2015, "A compact formula for the derivative of
+// a 3-D rotation in exponential coordinates"). Below Ceres' small-angle threshold Ceres rotates by
+// v + w x v, whose derivative is -[v]x.
+// R is R(w).
+Eigen::Matrix3d rotated_point_by_angle_axis(const Eigen::Vector3d& w, const Eigen::Matrix3d& R,
+                                            const Eigen::Vector3d& v) {
+  const double theta2 = w.squaredNorm();
+  if (theta2 <= std::numeric_limits<double>::epsilon()) return -skew(v);
+  return -R * skew(v) * (w * w.transpose() + (R.transpose() - Eigen::Matrix3d::Identity()) * skew(w)) /
+         theta2;
+}
+
+}  // namespace
+
+bool ReprojectionCost::Evaluate(double const* const* parameters, double* residuals,
+                                double** jacobians) const {
+  const double* pose = parameters[0];
+  const double* intrinsics = parameters[1];
+  const double* point = parameters[2];
+  double pixel[2], depth;
+  project(pose, intrinsics, aspect_, point, pixel, &depth);
+  residuals[0] = pixel[0] - observed_.x();
+  residuals[1] = pixel[1] - observed_.y();
+  if (!jacobians) return true;
+
+  // The same chain as project(): camera point p, normalised (x, y), distortion factor d.
+  Eigen::Vector3d p;
+  ceres::AngleAxisRotatePoint(pose, point, p.data());
+  p += Eigen::Vector3d(pose[3], pose[4], pose[5]);
+  const double x = p.x() / p.z(), y = p.y() / p.z();
+  const double r2 = x * x + y * y;
+  const double f = intrinsics[0], k1 = intrinsics[3], k2 = intrinsics[4];
+  const double d = 1 + k1 * r2 + k2 * r2 * r2;
+  const double dd_dr2 = k1 + 2 * k2 * r2;
+  Eigen::Matrix2d pixel_by_xy;
+  pixel_by_xy << f * (d + 2 * x * x * dd_dr2), f * 2 * x * y * dd_dr2,  //
+      f * aspect_ * 2 * x * y * dd_dr2, f * aspect_ * (d + 2 * y * y * dd_dr2);
+  Eigen::Matrix<double, 2, 3> xy_by_p;
+  xy_by_p << 1 / p.z(), 0, -x / p.z(), 0, 1 / p.z(), -y / p.z();
+  const Eigen::Matrix<double, 2, 3> pixel_by_p = pixel_by_xy * xy_by_p;
+  Eigen::Matrix3d R;
+  ceres::AngleAxisToRotationMatrix(pose, R.data());
+
+  using RowMajor2x6 = Eigen::Matrix<double, 2, 6, Eigen::RowMajor>;
+  using RowMajor2x5 = Eigen::Matrix<double, 2, 5, Eigen::RowMajor>;
+  using RowMajor2x3 = Eigen::Matrix<double, 2, 3, Eigen::RowMajor>;
+  if (jacobians[0]) {
+    Eigen::Map<RowMajor2x6> j(jacobians[0]);
+    const Eigen::Map<const Eigen::Vector3d> w(pose), v(point);
+    j.leftCols<3>() = pixel_by_p * rotated_point_by_angle_axis(w, R, v);
+    j.rightCols<3>() = pixel_by_p;
+  }
+  if (jacobians[1]) {
+    Eigen::Map<RowMajor2x5> j(jacobians[1]);
+    j << x * d, 1, 0, f * x * r2, f * x * r2 * r2,  //
+        aspect_ * y * d, 0, 1, f * aspect_ * y * r2, f * aspect_ * y * r2 * r2;
+  }
+  if (jacobians[2]) {
+    Eigen::Map<RowMajor2x3> j(jacobians[2]);
+    j = pixel_by_p * R;
+  }
+  return true;
+}
+
+}  // namespace pg
