@@ -7,29 +7,13 @@
 #include <atomic>
 #include <cmath>
 
+#include "pg/calib/x_junction_cost.h"
+
 namespace pg::calib {
 namespace {
 
-constexpr int kSubsamples = 3;  // per pixel side: the model averaged over the pixel's area
-
-// One pixel: offset + contrast * mean over the pixel of tanh(k d1) tanh(k d2), d1 and d2 the signed
-// distances to the two edges through the corner, with normals at angles shape[0] and shape[1].
-struct XJunctionPixel {
+struct Pixel {
   double x, y, value;
-
-  template <class T>
-  bool operator()(const T* corner, const T* shape, T* residual) const {
-    const T c0 = cos(shape[0]), s0 = sin(shape[0]), c1 = cos(shape[1]), s1 = sin(shape[1]);
-    T sum(0);
-    for (int j = 0; j < kSubsamples; ++j)
-      for (int i = 0; i < kSubsamples; ++i) {
-        const T dx = T(x + (i + 0.5) / kSubsamples - 0.5) - corner[0];
-        const T dy = T(y + (j + 0.5) / kSubsamples - 0.5) - corner[1];
-        sum += tanh(shape[4] * (c0 * dx + s0 * dy)) * tanh(shape[4] * (c1 * dx + s1 * dy));
-      }
-    residual[0] = shape[2] + shape[3] * sum / T(kSubsamples * kSubsamples) - T(value);
-    return true;
-  }
 };
 
 // Normal angle of the board line along `direction`.
@@ -39,7 +23,7 @@ double normal_angle(const cv::Point2f& direction) {
 
 bool fit_corner(const cv::Mat& gray, cv::Point2f& corner, const cv::Point2f& along_row,
                 const cv::Point2f& along_column, double radius) {
-  std::vector<XJunctionPixel> pixels;
+  std::vector<Pixel> pixels;
   const int r = int(std::ceil(radius));
   const int x0 = int(std::lround(corner.x)), y0 = int(std::lround(corner.y));
   double mean = 0;
@@ -55,7 +39,7 @@ bool fit_corner(const cv::Mat& gray, cv::Point2f& corner, const cv::Point2f& alo
   double c[2] = {corner.x, corner.y};
   // shape: the two normal angles, offset, contrast (its sign says which quadrants are dark), 1 / blur.
   double shape[5] = {normal_angle(along_row), normal_angle(along_column), mean, 0, 1};
-  for (const XJunctionPixel& p : pixels) {
+  for (const Pixel& p : pixels) {
     const double dx = p.x - c[0], dy = p.y - c[1];
     const double side = (std::cos(shape[0]) * dx + std::sin(shape[0]) * dy) *
                         (std::cos(shape[1]) * dx + std::sin(shape[1]) * dy);
@@ -63,9 +47,8 @@ bool fit_corner(const cv::Mat& gray, cv::Point2f& corner, const cv::Point2f& alo
   }
   shape[3] /= double(pixels.size());
   ceres::Problem problem;
-  for (const XJunctionPixel& p : pixels)
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<XJunctionPixel, 1, 2, 5>(new XJunctionPixel(p)),
-                             nullptr, c, shape);
+  for (const Pixel& p : pixels)
+    problem.AddResidualBlock(new XJunctionPixelCost(p.x, p.y, p.value), nullptr, c, shape);
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_QR;
   options.max_num_iterations = 50;
