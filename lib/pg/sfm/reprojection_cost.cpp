@@ -13,16 +13,17 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
   return s;
 }
 
-// d(R(w) v)/dw for the angle-axis w (Gallego and Yezzi 2015, "A compact formula for the derivative of
-// a 3-D rotation in exponential coordinates"). Below Ceres' small-angle threshold Ceres rotates by
-// v + w x v, whose derivative is -[v]x.
-// R is R(w).
-Eigen::Matrix3d rotated_point_by_angle_axis(const Eigen::Vector3d& w, const Eigen::Matrix3d& R,
-                                            const Eigen::Vector3d& v) {
+// J d(R(w) v)/dw for a 2x3 J = d(pixel)/d(R(w) v + t) and the angle-axis w, R = R(w): by Gallego and
+// Yezzi 2015 ("A compact formula for the derivative of a 3-D rotation in exponential coordinates"),
+// d(R v)/dw = -R [v]x (w w^T + (R^T - I) [w]x) / |w|^2, multiplied out from the left in 2x3 products.
+// Below Ceres' small-angle threshold Ceres rotates by v + w x v, whose derivative is -[v]x.
+Eigen::Matrix<double, 2, 3> pixel_by_angle_axis(const Eigen::Matrix<double, 2, 3>& J,
+                                                const Eigen::Matrix3d& R, const Eigen::Vector3d& w,
+                                                const Eigen::Vector3d& v) {
   const double theta2 = w.squaredNorm();
-  if (theta2 <= std::numeric_limits<double>::epsilon()) return -skew(v);
-  return -R * skew(v) * (w * w.transpose() + (R.transpose() - Eigen::Matrix3d::Identity()) * skew(w)) /
-         theta2;
+  if (theta2 <= std::numeric_limits<double>::epsilon()) return -J * skew(v);
+  const Eigen::Matrix<double, 2, 3> B = J * R * skew(v);
+  return -((B * w) * w.transpose() + (B * R.transpose() - B) * skew(w)) / theta2;
 }
 
 }  // namespace
@@ -62,7 +63,7 @@ bool ReprojectionCost::Evaluate(double const* const* parameters, double* residua
   if (jacobians[0]) {
     Eigen::Map<RowMajor2x6> j(jacobians[0]);
     const Eigen::Map<const Eigen::Vector3d> w(pose), v(point);
-    j.leftCols<3>() = pixel_by_p * rotated_point_by_angle_axis(w, R, v);
+    j.leftCols<3>() = pixel_by_angle_axis(pixel_by_p, R, w, v);
     j.rightCols<3>() = pixel_by_p;
   }
   if (jacobians[1]) {
