@@ -14,6 +14,7 @@
 #include "pg/sfm/reconstruction.h"
 #include "pg/testing/testing.h"
 #include "pg/track/correspondences.h"
+#include "pg/track/tracks.h"
 
 namespace pg {
 namespace {
@@ -34,6 +35,23 @@ double path_extent(const CameraSet& truth) {
   return extent;
 }
 
+// The tracks of `frames`, made once per build of this test program and shared through a tracks file
+// by the known-intrinsics and self-calibrated runs of one set (they match the same images the same
+// way; the file keeps positions exactly).
+TrackSet shared_tracks(const std::string& name, const std::vector<SequenceFrame>& frames, double downscale) {
+  std::string key = "sfm-real-tracks-" + name;
+  std::replace(key.begin(), key.end(), ' ', '-');
+  std::filesystem::path folder;
+  testing::shared_folder(key, "/proc/self/exe", folder, [&](const std::filesystem::path& partial) {
+    CorrespondenceOptions co;
+    co.downscale = downscale;
+    std::filesystem::create_directories(partial);
+    write_tracks(partial / "tracks.json", build_correspondences(frames, co).tracks);
+    return true;
+  });
+  return read_tracks(folder / "tracks.json");
+}
+
 // Tracks `truth`'s images in order and evaluates against it. With `known_intrinsics` the true
 // calibration is fixed; otherwise one focal length and principal point are self-calibrated from the
 // default guess (the image centre).
@@ -51,16 +69,14 @@ Measured track_and_evaluate(const std::string& name, const std::filesystem::path
     }
     initial.push_back(guess);
   }
-  CorrespondenceOptions co;
-  co.downscale = downscale;
-  const CorrespondenceResult correspondences = build_correspondences(frames, co);
+  const TrackSet tracks = shared_tracks(name, frames, downscale);
   SfmOptions so;
   so.shared_intrinsics = !known_intrinsics;
   so.refine_focal = !known_intrinsics;
   so.principal_point = PrincipalPointMode::when_better;  // as pg-track self-calibrates
   so.max_reprojection_px *= downscale;
   so.huber_px *= downscale;
-  const SfmResult result = reconstruct(correspondences.tracks, initial, so);
+  const SfmResult result = reconstruct(tracks, initial, so);
   CameraSet estimate;
   for (std::size_t f = 0; f < result.cameras.size(); ++f)
     if (result.registered[f]) estimate.cameras.push_back(result.cameras[f]);
@@ -84,8 +100,7 @@ Measured track_and_evaluate(const std::string& name, const std::filesystem::path
             << "% of the path extent, rotation median " << m.median_rotation_deg << " deg max "
             << m.max_rotation_deg << " deg (orientation-aligned median " << m.median_orientation_deg
             << " max " << m.max_orientation_deg << "), focal error " << m.focal_error_percent
-            << "%, reprojection RMS " << result.rms_px << " px, " << correspondences.tracks.tracks.size()
-            << " tracks\n";
+            << "%, reprojection RMS " << result.rms_px << " px, " << tracks.tracks.size() << " tracks\n";
   return m;
 }
 

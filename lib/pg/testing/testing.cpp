@@ -11,6 +11,7 @@
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 
 #include "pg/build_info.h"
 
@@ -100,38 +101,50 @@ ToolResult run_tool(const std::string& tool, const std::vector<std::string>& arg
   return result;
 }
 
-SharedOutput shared_tool_output(const std::string& name, const std::string& tool,
-                                const std::vector<std::string>& args) {
-  const fs::path binary = bin_dir() / tool;
+bool shared_folder(const std::string& name, const fs::path& maker, fs::path& folder,
+                   const std::function<bool(const fs::path& partial)>& make) {
   std::error_code ec;
-  const auto stamp = fs::last_write_time(binary, ec).time_since_epoch().count();
-  const std::string key =
-      name + "-" + std::to_string(fs::file_size(binary, ec)) + "-" + std::to_string(stamp);
+  const auto stamp = fs::last_write_time(maker, ec).time_since_epoch().count();
+  const std::string key = name + "-" + std::to_string(fs::file_size(maker, ec)) + "-" + std::to_string(stamp);
   const fs::path cache = bin_dir().parent_path() / "test-cache";
   fs::create_directories(cache);
-  SharedOutput out{cache / key, {}};
-  out.run.exit_code = 0;
+  folder = cache / key;
   // flock is released when the descriptor closes, also when a test process dies.
   const int lock = ::open((cache / (name + ".lock")).c_str(), O_RDWR | O_CREAT, 0644);
   if (lock < 0 || ::flock(lock, LOCK_EX) != 0) {
-    out.run = {-1, "", "cannot lock " + (cache / (name + ".lock")).string()};
     if (lock >= 0) ::close(lock);
-    return out;
+    throw std::runtime_error("cannot lock " + (cache / (name + ".lock")).string());
   }
-  if (!fs::exists(out.folder / ".complete")) {
+  bool made = true;
+  if (!fs::exists(folder / ".complete")) {
     for (const fs::directory_entry& entry : fs::directory_iterator(cache))  // older builds' folders
       if (entry.is_directory() && entry.path().filename().string().starts_with(name + "-"))
         fs::remove_all(entry.path(), ec);
     const fs::path partial = cache / (key + ".partial");
-    std::vector<std::string> full_args = args;
-    full_args.insert(full_args.end(), {"--out", partial.string()});
-    out.run = run_tool(tool, full_args);
-    if (out.run.exit_code == 0) {
+    made = make(partial);
+    if (made) {
       write_text(partial / ".complete", "");
-      fs::rename(partial, out.folder);
+      fs::rename(partial, folder);
     }
   }
   ::close(lock);
+  return made;
+}
+
+SharedOutput shared_tool_output(const std::string& name, const std::string& tool,
+                                const std::vector<std::string>& args) {
+  SharedOutput out;
+  out.run.exit_code = 0;
+  try {
+    shared_folder(name, bin_dir() / tool, out.folder, [&](const fs::path& partial) {
+      std::vector<std::string> full_args = args;
+      full_args.insert(full_args.end(), {"--out", partial.string()});
+      out.run = run_tool(tool, full_args);
+      return out.run.exit_code == 0;
+    });
+  } catch (const std::runtime_error& e) {
+    out.run = {-1, "", e.what()};
+  }
   return out;
 }
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -38,11 +39,18 @@ struct ToolResult {
 ToolResult run_tool(const std::string& tool, const std::vector<std::string>& args,
                     const std::vector<std::string>& extra_env = {});
 
-// A tool's output folder made once per build and shared by every test process that asks for it: the
-// first caller runs `tool args... --out FOLDER` while the others wait on a lock, later callers reuse
-// the folder. It lives under the build tree, keyed by `name` and by the tool binary's size and time,
-// so a rebuilt tool makes a fresh one. For inputs that are slow to make (a rendered orbit) and only
-// read by the tests. `run` is the tool's result when this call made the folder, exit code 0 otherwise.
+// A folder made once per build and shared by every test process that asks for it: the first caller
+// runs `make(partial)` while the others wait on a lock, later callers reuse the folder. It lives under
+// the build tree, keyed by `name` and by the size and time of `maker` (the tool or test executable
+// that makes it), so a rebuild makes a fresh one. For inputs that are slow to make and only read by
+// the tests. `make` returns whether it succeeded; only then is the folder renamed into place and
+// kept. Sets `folder`; returns false when this call's `make` failed. Throws std::runtime_error when
+// the lock cannot be taken.
+bool shared_folder(const std::string& name, const std::filesystem::path& maker, std::filesystem::path& folder,
+                   const std::function<bool(const std::filesystem::path& partial)>& make);
+
+// A tool's output folder shared that way (a rendered orbit): `tool args... --out FOLDER`. `run` is the
+// tool's result when this call made the folder, exit code 0 otherwise.
 struct SharedOutput {
   std::filesystem::path folder;
   ToolResult run;
