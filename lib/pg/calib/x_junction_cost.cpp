@@ -8,10 +8,8 @@ bool XJunctionPixelCost::Evaluate(double const* const* parameters, double* resid
                                   double** jacobians) const {
   const double* corner = parameters[0];
   const double* shape = parameters[1];
-  residuals[0] = x_junction_model(x_, y_, corner, shape) - value_;
-  if (!jacobians) return true;
-
-  // d(t0 t1) for t_k = tanh(k (c_k dx + s_k dy)), summed over the subsamples.
+  // x_junction_model's sum of t0 t1, t_k = tanh(k (c_k dx + s_k dy)), with its derivatives: one pass
+  // over the subsamples for both (the tanh are most of the cost).
   const double c0 = std::cos(shape[0]), s0 = std::sin(shape[0]), c1 = std::cos(shape[1]),
                s1 = std::sin(shape[1]), k = shape[4];
   constexpr int n = x_junction_subsamples;
@@ -30,6 +28,8 @@ bool XJunctionPixelCost::Evaluate(double const* const* parameters, double* resid
       by_angle1 += g1 * k * (-s1 * dx + c1 * dy);
       by_k += g0 * d0 + g1 * d1;
     }
+  residuals[0] = shape[2] + shape[3] * sum / (n * n) - value_;
+  if (!jacobians) return true;
   const double scale = shape[3] / (n * n);
   if (jacobians[0]) {
     jacobians[0][0] = scale * by_cx;

@@ -1,7 +1,8 @@
 #pragma once
 // The corner fit's pixel model (see corner_fit.h) and its cost with analytic derivatives. Automatic
 // differentiation of the 18 tanh per pixel took nearly all of pg-calib's time (nine tenths under the
-// sanitizers); the test checks these derivatives against autodiff of `x_junction_model`.
+// sanitizers); the cost computes the same model as `x_junction_model`, and the test checks its value and
+// derivatives against autodiff of that function.
 #include <ceres/sized_cost_function.h>
 
 #include <cmath>
