@@ -30,19 +30,26 @@ run_make -q "$work/shot-report.md" || fail "make -q: a second make would run som
 [ -z "$(run_make -n "$work/shot-report.md")" ] || fail "make -n lists commands after a complete run"
 echo "ok: second make has nothing to do"
 
-# Touching one depth map redoes its partial merge and what follows, nothing before or beside it.
-# (Run for real and read the commands make printed: GNU make 4.3's dry run does not follow grouped
-# targets (&:) to what depends on them.)
-touch "$work/depth/view_009-view_010.exr"
-jobs=$(make -f pipelines/demo.mk WORK="$work" PG_BIN="$bin" PROGRESS=off "$work/shot-report.md") \
-  || fail "make after touching a depth map failed"
-echo "$jobs" | grep -q "pg-merge integrate.*part-8.vdb" || fail "touched depth map: its partial is not redone"
-echo "$jobs" | grep -q "pg-merge combine" || fail "touched depth map: no combine"
-echo "$jobs" | grep -q "pg-refine" || fail "touched depth map: no refinement"
-echo "$jobs" | grep -q "pg-remesh" || fail "touched depth map: no remeshing"
-[ "$(echo "$jobs" | grep -c "pg-merge integrate")" = 1 ] || fail "touched depth map: other partials redone"
-! echo "$jobs" | grep -q -e pg-depth -e pg-track -e pg-synth -e pg-calib || fail "touched depth map: earlier stages redone"
-echo "ok: a touched depth map redoes 1 partial merge, the combine, refine, remesh and evaluations"
+# The rerun below runs pg-merge, pg-refine and pg-remesh again on the same bytes: it tests Make's
+# dependency graph, not the tools, so the sanitizer build (PG_SANITIZED=1) leaves it to the Release
+# suite and keeps the check of the graph that needs no rerun.
+if [ "${PG_SANITIZED:-0}" = 1 ]; then
+  echo "skipped under the sanitizers: the rerun after a touched depth map (the Release suite runs it)"
+else
+  # Touching one depth map redoes its partial merge and what follows, nothing before or beside it.
+  # (Run for real and read the commands make printed: GNU make 4.3's dry run does not follow grouped
+  # targets (&:) to what depends on them.)
+  touch "$work/depth/view_009-view_010.exr"
+  jobs=$(make -f pipelines/demo.mk WORK="$work" PG_BIN="$bin" PROGRESS=off "$work/shot-report.md") \
+    || fail "make after touching a depth map failed"
+  echo "$jobs" | grep -q "pg-merge integrate.*part-8.vdb" || fail "touched depth map: its partial is not redone"
+  echo "$jobs" | grep -q "pg-merge combine" || fail "touched depth map: no combine"
+  echo "$jobs" | grep -q "pg-refine" || fail "touched depth map: no refinement"
+  echo "$jobs" | grep -q "pg-remesh" || fail "touched depth map: no remeshing"
+  [ "$(echo "$jobs" | grep -c "pg-merge integrate")" = 1 ] || fail "touched depth map: other partials redone"
+  ! echo "$jobs" | grep -q -e pg-depth -e pg-track -e pg-synth -e pg-calib || fail "touched depth map: earlier stages redone"
+  echo "ok: a touched depth map redoes 1 partial merge, the combine, refine, remesh and evaluations"
+fi
 
 # Touching one checkerboard photo redoes only the calibration (the set is tracked self-calibrated).
 touch "$work/board/images/view_003.png"
