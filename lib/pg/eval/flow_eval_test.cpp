@@ -27,8 +27,9 @@ void write_bytes(const std::filesystem::path& path, const std::string& bytes) {
   std::ofstream(path, std::ios::binary) << bytes;
 }
 
-std::string flo_header(float magic, std::int32_t width, std::int32_t height) {
-  std::string h(12, '\0');
+// A .flo header followed by `payload_bytes` zero bytes.
+std::string flo_header(float magic, std::int32_t width, std::int32_t height, std::size_t payload_bytes = 0) {
+  std::string h(12 + payload_bytes, '\0');
   std::memcpy(h.data(), &magic, 4);
   std::memcpy(h.data() + 4, &width, 4);
   std::memcpy(h.data() + 8, &height, 4);
@@ -144,9 +145,9 @@ TEST(FloIo, RejectsMalformedFiles) {
     }
   };
   expect_rejected("short.flo", "PIE", "too short");
-  expect_rejected("magic.flo", flo_header(1.0f, 2, 2) + std::string(32, '\0'), "bad magic");
-  expect_rejected("truncated.flo", flo_header(202021.25f, 4, 4) + std::string(100, '\0'), "truncated");
-  expect_rejected("trailing.flo", flo_header(202021.25f, 1, 1) + std::string(9, '\0'), "trailing");
+  expect_rejected("magic.flo", flo_header(1.0f, 2, 2, 32), "bad magic");
+  expect_rejected("truncated.flo", flo_header(202021.25f, 4, 4, 100), "truncated");
+  expect_rejected("trailing.flo", flo_header(202021.25f, 1, 1, 9), "trailing");
   expect_rejected("huge.flo", flo_header(202021.25f, 100000, 100000), "outside");
   expect_rejected("negative.flo", flo_header(202021.25f, -5, 3), "outside");
   // Within the dimension bound but claiming 32 GiB: refused from the file length, before allocating.
