@@ -9,8 +9,7 @@ endif()
 if(PG_PRECOMPILE_HEADERS)
   add_library(pg_pch_headers INTERFACE)
   target_link_libraries(pg_pch_headers INTERFACE Eigen3::Eigen nlohmann_json::nlohmann_json opencv_core)
-  file(WRITE ${PROJECT_BINARY_DIR}/generated/pg_pch.cpp "// The translation unit pg_pch compiles its header with.\n")
-  add_library(pg_pch STATIC ${PROJECT_BINARY_DIR}/generated/pg_pch.cpp)
+  add_library(pg_pch STATIC ${PROJECT_SOURCE_DIR}/cmake/pg_pch.cpp)
   target_link_libraries(pg_pch PRIVATE pg_pch_headers)
   target_precompile_headers(pg_pch PRIVATE
     <algorithm> <array> <chrono> <cmath> <cstdint> <filesystem> <functional> <iostream> <map>
