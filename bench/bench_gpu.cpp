@@ -1,5 +1,6 @@
 // Accelerated backend benchmark: the CPU reference against the OpenCL kernels (PoCL on a machine
-// without a GPU, the GPU's driver where there is one), on the same inputs:
+// without a GPU, the GPU's driver where there is one), and the CUDA kernels where built and usable
+// (flow and solver), on the same inputs:
 //   flow:  one warp of the flow solver's inner iterations (5 fixed-point x 10 SOR sweeps) at 1536x1024;
 //   solver: the whole flow solver (pg::compute_flow, every pyramid level, inner iterations on the
 //          device as pg-depth --device runs them) on one 1024x768 pair, free and epipolar mode;
@@ -192,6 +193,14 @@ int main() {
   const double flow_cl = best_time(2, [&] { pg::gpu::flow_increments_opencl(flow, du_cl, dv_cl); });
   report("flow", flow_cpu, flow_cl,
          std::max(cv::norm(du_cpu, du_cl, cv::NORM_INF), cv::norm(dv_cpu, dv_cl, cv::NORM_INF)));
+  if (pg::gpu::cuda_unavailable_reason().empty()) {
+    cv::Mat1f du_cuda, dv_cuda;
+    const double flow_cuda =
+        best_time(2, [&] { pg::gpu::flow_increments(flow, du_cuda, dv_cuda, pg::gpu::DeviceKind::cuda); });
+    std::printf("flow   cpu %8.3f s   cuda   %8.3f s   cpu/cuda   %6.2fx   max |difference| %.2e\n", flow_cpu,
+                flow_cuda, flow_cpu / flow_cuda,
+                std::max(cv::norm(du_cpu, du_cuda, cv::NORM_INF), cv::norm(dv_cpu, dv_cuda, cv::NORM_INF)));
+  }
 
   const pg::fusion::DepthFrame frame = sphere_frame(640, 480);
   const double voxel = 0.005;

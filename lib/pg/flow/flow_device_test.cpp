@@ -1,15 +1,21 @@
 // The whole flow solver with its inner iterations on the OpenCL device (PoCL here) against the CPU
-// reference, in both modes, on a synthetic pair with a known smooth flow. Skips without OpenCL.
+// reference, in both modes, on a synthetic pair with a known smooth flow and on real photographs
+// (MPI-Sintel, Middlebury; on CUDA too where a CUDA device is usable). Skips without OpenCL.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <string>
+#include <vector>
 
 #include "pg/flow/flow.h"
+#include "pg/flow/level_solver.h"
 #include "pg/gpu/device.h"
 #include "pg/gpu/flow_increments.h"
+#include "pg/gpu/flow_level.h"
 #include "pg/gpu/test_support.h"
+#include "pg/image/image_io.h"
+#include "pg/testing/testing.h"
 
 namespace {
 
@@ -143,6 +149,86 @@ TEST(FlowDevice, LevelsTooLargeForTheDeviceAreSolvedInBandsWithTheSameResult) {
   EXPECT_LT(cpu_error, 0.1);
   EXPECT_LT(std::abs(cpu_error - banded_error), 0.01);
   EXPECT_LT(mean_epe(cpu, banded), 0.01);
+}
+
+// The accelerated backends a real-data comparison runs on: OpenCL, and CUDA where usable.
+std::vector<pg::gpu::DeviceKind> accelerated_kinds() {
+  std::vector<pg::gpu::DeviceKind> kinds{pg::gpu::DeviceKind::opencl};
+  if (pg::gpu::cuda_unavailable_reason().empty()) kinds.push_back(pg::gpu::DeviceKind::cuda);
+  return kinds;
+}
+
+// A level's warp on the device: the derivatives, the bilinear warp and the twelve tensor planes equal
+// the CPU solver's to rounding, for a colour pair and a flow that leaves the image near its borders.
+TEST(FlowDevice, WarpTensorsOnTheDeviceEqualTheCpu) {
+  PG_REQUIRE_OPENCL();
+  const cv::Size size(203, 157);
+  std::vector<cv::Mat1f> from, to;
+  for (const auto& [image, channels] :
+       {std::pair{texture(size, 3), &from}, std::pair{texture(size, 4), &to}}) {
+    std::vector<cv::Mat> planes;
+    cv::split(image, planes);
+    for (const cv::Mat& p : planes) {
+      cv::Mat1f channel;
+      p.convertTo(channel, CV_32F, 1.0 / 255);
+      channels->push_back(channel);
+    }
+  }
+  cv::Mat1f u(size), v(size);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      u(y, x) = 6.f * float(std::sin(0.05 * x + 0.02 * y)) + 0.37f;
+      v(y, x) = -5.f * float(std::cos(0.03 * y - 0.04 * x)) - 0.21f;
+    }
+  for (const double zeta : {0.0004, 0.0}) {
+    pg::FlowOptions options;
+    options.zeta = zeta;
+    pg::flow_detail::PlanePool pool(size);
+    const pg::flow_detail::LevelImages level = pg::flow_detail::prepare_level(from, to, options, pool);
+    pg::flow_detail::LevelSolver solver(size, options);
+    const std::array<cv::Mat1f, 12> cpu = solver.tensors(level, u, v);
+    for (const pg::gpu::DeviceKind kind : accelerated_kinds()) {
+      pg::gpu::FlowLevel device(kind, from, to, level.smoothness, float(zeta * zeta));
+      const std::array<cv::Mat1f, 12> on_device = device.tensors(u, v);
+      for (int k = 0; k < 12; ++k) {
+        const double scale = std::max(1.0, cv::norm(cpu[k], cv::NORM_INF));
+        EXPECT_LE(cv::norm(cpu[k], on_device[k], cv::NORM_INF), 1e-5 * scale)
+            << pg::gpu::to_string(kind) << " zeta " << zeta << " plane " << k;
+      }
+    }
+  }
+}
+
+// Real photographs, where nothing is smooth or synthetic: MPI-Sintel's alley (1024x436, free flow)
+// and Middlebury's Venus (434x383, epipolar): the device's flow within a hundredth of a pixel of the
+// CPU's, on average over every pixel.
+TEST(FlowDevice, SintelAlleyOnTheDeviceMatchesTheCpu) {
+  PG_REQUIRE_OPENCL();
+  PG_REQUIRE_REAL_DATA(dir, "flow/sintel/clean/alley_1");
+  const cv::Mat a = pg::read_image(dir / "frame_0002.png"), b = pg::read_image(dir / "frame_0003.png");
+  const auto solve = [&] { return pg::compute_flow(a, b, pg::FlowOptions::preset("fast")); };
+  const cv::Mat2f cpu = on_device(pg::gpu::DeviceKind::cpu, solve);
+  for (const pg::gpu::DeviceKind kind : accelerated_kinds()) {
+    const double difference = mean_epe(cpu, on_device(kind, solve), 0);
+    ::testing::Test::RecordProperty("cpu_" + pg::gpu::to_string(kind) + "_epe", std::to_string(difference));
+    EXPECT_LT(difference, 0.01) << pg::gpu::to_string(kind);
+  }
+}
+
+TEST(FlowDevice, MiddleburyVenusEpipolarOnTheDeviceMatchesTheCpu) {
+  PG_REQUIRE_OPENCL();
+  PG_REQUIRE_REAL_DATA(dir, "stereo/middlebury/venus");
+  const cv::Mat a = pg::read_image(dir / "im2.png"), b = pg::read_image(dir / "im6.png");
+  const pg::EpipolarField field{cv::Mat2f(a.size(), cv::Vec2f(0, 0)), cv::Mat2f(a.size(), cv::Vec2f(-1, 0))};
+  const auto solve = [&] {
+    return pg::compute_epipolar_flow(a, b, field, pg::FlowOptions::preset("fast")).flow;
+  };
+  const cv::Mat2f cpu = on_device(pg::gpu::DeviceKind::cpu, solve);
+  for (const pg::gpu::DeviceKind kind : accelerated_kinds()) {
+    const double difference = mean_epe(cpu, on_device(kind, solve), 0);
+    ::testing::Test::RecordProperty("cpu_" + pg::gpu::to_string(kind) + "_epe", std::to_string(difference));
+    EXPECT_LT(difference, 0.01) << pg::gpu::to_string(kind);
+  }
 }
 
 }  // namespace

@@ -16,6 +16,13 @@
 #include "pg/core/log.h"
 #include "pg/image/pyramid.h"
 
+// A loop whose arrays the compiler may assume do not overlap (each compiler's own spelling).
+#if defined(__clang__)
+#define PG_NO_ALIAS_LOOP _Pragma("clang loop vectorize(assume_safety)")
+#else
+#define PG_NO_ALIAS_LOOP _Pragma("GCC ivdep")
+#endif
+
 namespace pg::flow_detail {
 namespace {
 
@@ -531,13 +538,45 @@ bool LevelSolver::device_line_increments(const cv::Mat1f& s, const cv::Mat2f& di
   return run_on_device([&] { gpu::line_increments(in, du_); });
 }
 
+std::unique_ptr<gpu::FlowLevel> LevelSolver::device_level(gpu::IncrementMode mode) const {
+  if (options_.clg_rho > 0) return nullptr;
+  const int channels = static_cast<int>(images_->from.size());
+  if (!gpu::fits_on(gpu::level_footprint(images_->size(), channels, mode), gpu::flow_device_info()))
+    return nullptr;
+  std::vector<cv::Mat1f> from, to;
+  for (int c = 0; c < channels; ++c) {
+    from.push_back(continuous(images_->from[c].image));
+    to.push_back(continuous(images_->to[c].image));
+  }
+  try {
+    return std::make_unique<gpu::FlowLevel>(gpu::active_device(), from, to, continuous(images_->smoothness),
+                                            static_cast<float>(options_.zeta * options_.zeta));
+  } catch (const FailedError& e) {
+    log::debug(e.what(), "; computing this level's tensors on the CPU");
+    return nullptr;
+  }
+}
+
+std::array<cv::Mat1f, 12> LevelSolver::tensors(const LevelImages& images, const cv::Mat1f& u,
+                                               const cv::Mat1f& v) {
+  start_level(images);
+  compute_tensors(u, v);
+  return {b11_.clone(), b12_.clone(), b22_.clone(), b13_.clone(), b23_.clone(), b33_.clone(),
+          g11_.clone(), g12_.clone(), g22_.clone(), g13_.clone(), g23_.clone(), g33_.clone()};
+}
+
 void LevelSolver::solve(const LevelImages& images, cv::Mat1f& u, cv::Mat1f& v) {
   start_level(images);
   bool on_device = use_device(gpu::IncrementMode::free);
+  std::unique_ptr<gpu::FlowLevel> level = on_device ? device_level(gpu::IncrementMode::free) : nullptr;
   for (int warp = 0; warp < options_.warps; ++warp) {
-    compute_tensors(u, v);
-    on_device = on_device && device_increments(u, v);
-    if (!on_device) cpu_increments(u, v);
+    if (level && !run_on_device([&] { level->flow_increments(u, v, increment_options(), du_, dv_); }))
+      level.reset(), on_device = false;
+    if (!level) {
+      compute_tensors(u, v);
+      on_device = on_device && device_increments(u, v);
+      if (!on_device) cpu_increments(u, v);
+    }
     u += du_;
     v += dv_;
     median_filter(u);
@@ -576,7 +615,7 @@ void LevelSolver::cpu_increments(const cv::Mat1f& u, const cv::Mat1f& v) {
         float a11_inv[system_block], a22_inv[system_block], a12[system_block], rhs1[system_block],
             rhs2[system_block];
         // The block's arrays and the planes never overlap: no alias checks (too many to vectorise).
-#pragma GCC ivdep
+        PG_NO_ALIAS_LOOP
         for (int i = 0; i < n; ++i) {
           const int x = start + i;
           const float du = du_row[x], dv = dv_row[x];
@@ -612,6 +651,8 @@ void LevelSolver::solve_along(const LevelImages& images, cv::Mat1f& s, const cv:
                               const cv::Mat2f& direction) {
   start_level(images);
   bool on_device = use_device(gpu::IncrementMode::line);
+  std::unique_ptr<gpu::FlowLevel> level = on_device ? device_level(gpu::IncrementMode::line) : nullptr;
+  const cv::Mat2f continuous_direction = direction.isContinuous() ? direction : cv::Mat2f(direction.clone());
   cv::Mat1f u = pool_.take(rows_, cols_), v = pool_.take(rows_, cols_);
   cv::Mat1f& ds = du_;  // the increment of s; dv_ is unused in this mode
   for (int warp = 0; warp < options_.warps; ++warp) {
@@ -623,9 +664,15 @@ void LevelSolver::solve_along(const LevelImages& images, cv::Mat1f& s, const cv:
         v(y, x) = b[1] + s(y, x) * d[1];
       }
     });
-    compute_tensors(u, v);
-    on_device = on_device && device_line_increments(s, direction);
-    if (!on_device) cpu_line_increments(s, direction);
+    if (level && !run_on_device([&] {
+          level->line_increments(u, v, continuous(s), continuous_direction, increment_options(), du_);
+        }))
+      level.reset(), on_device = false;
+    if (!level) {
+      compute_tensors(u, v);
+      on_device = on_device && device_line_increments(s, direction);
+      if (!on_device) cpu_line_increments(s, direction);
+    }
     s += ds;
     median_filter(s);
   }
@@ -657,7 +704,7 @@ void LevelSolver::cpu_line_increments(const cv::Mat1f& s, const cv::Mat2f& direc
         neighbour_values(s_row, start, n, cols_, s_left, s_right);
         float a_inv[system_block], rhs[system_block];
         // The block's arrays and the planes never overlap: no alias checks (too many to vectorise).
-#pragma GCC ivdep
+        PG_NO_ALIAS_LOOP
         for (int i = 0; i < n; ++i) {
           const int x = start + i;
           const float d0 = directions[2 * x], d1 = directions[2 * x + 1];

@@ -1,11 +1,14 @@
 #pragma once
 // Internal: one pyramid level of the variational flow solver (see flow.h for the energy).
+#include <array>
 #include <cstddef>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <vector>
 
 #include "pg/flow/flow.h"
 #include "pg/gpu/flow_increments.h"
+#include "pg/gpu/flow_level.h"
 
 namespace pg::flow_detail {
 
@@ -66,9 +69,11 @@ LevelImages prepare_level(const std::vector<cv::Mat1f>& from, const std::vector<
 
 // Solves the levels one after the other: warps, lagged fixed-point iterations and red-black SOR.
 // Buffers are allocated once, for the largest level, and reused; the per-pixel loops allocate
-// nothing. With an accelerated device active (pg/gpu/device.h) each warp's fixed-point iterations
-// run there (pg/gpu/flow_increments.h), in both modes, when the level fits the device's memory; the
-// warp, the tensors and the median stay here.
+// nothing. With an accelerated device active (pg/gpu/device.h) a level that fits the device's memory
+// runs its warps there whole (pg/gpu/flow_level.h: derivatives, the warp, the tensors and the
+// fixed-point iterations), in both modes; the median filter stays here. In CLG mode, or where only
+// bands of the level fit, the tensors are computed here and the fixed-point iterations run there
+// (pg/gpu/flow_increments.h).
 class LevelSolver {
  public:
   // Levels up to `largest` pixels; `options` must outlive the solver.
@@ -79,11 +84,17 @@ class LevelSolver {
   // Flow base + s * direction; s refined in place. NaN base: no data term there.
   void solve_along(const LevelImages& images, cv::Mat1f& s, const cv::Mat2f& base,
                    const cv::Mat2f& direction);
+  // The motion tensors at flow (u, v): brightness 11 12 22 13 23 33, then gradient (for the tests
+  // that compare the device's with these).
+  std::array<cv::Mat1f, 12> tensors(const LevelImages& images, const cv::Mat1f& u, const cv::Mat1f& v);
 
  private:
   // Whether this level's increments run on the active accelerated device: one is active and the
   // level fits its memory (else the CPU reference, with a one-line notice).
   bool use_device(gpu::IncrementMode mode) const;
+  // This level on the active device for whole warps, or null where it does not fit, the tensors are
+  // blurred (CLG) or the upload fails (then the tensors stay here).
+  std::unique_ptr<gpu::FlowLevel> device_level(gpu::IncrementMode mode) const;
   // One warp's increments du_, dv_ (free mode) from the current tensors, on the CPU or the device
   // (false when the device failed: the caller falls back to the CPU).
   void cpu_increments(const cv::Mat1f& u, const cv::Mat1f& v);

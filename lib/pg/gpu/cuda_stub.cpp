@@ -19,5 +19,10 @@ void cuda_line_increments(const LineIncrementInput&, cv::Mat1f&) {
   throw FailedError("CUDA line increments called in a build without CUDA");
 }
 
+std::unique_ptr<FlowLevelBackend> cuda_flow_level(const std::vector<cv::Mat1f>&,
+                                                  const std::vector<cv::Mat1f>&, const cv::Mat1f&, float) {
+  throw FailedError("CUDA flow level asked for in a build without CUDA");
+}
+
 }  // namespace pg::gpu::detail
 #endif

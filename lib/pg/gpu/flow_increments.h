@@ -2,7 +2,8 @@
 // The inner iterations of the variational flow solver (pg/flow/level_solver.cpp) for one warp: the
 // lagged-nonlinearity fixed-point iterations, each rebuilding the robust smoothness and data weights
 // and solving the linearised 2x2-per-pixel system with red-black SOR sweeps. This is the solver's hot
-// loop; the warp and the motion tensors stay on the CPU.
+// loop. Here the motion tensors come from the CPU; a level that fits the device whole computes them
+// there too (flow_level.h). Buffers and a pinned upload area persist between warps.
 //
 // flow_increments_cpu is the reference (the same arithmetic as LevelSolver::solve, in float). The
 // OpenCL and CUDA versions run the same float operations in the same order (no contraction into FMA,

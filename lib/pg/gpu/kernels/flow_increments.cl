@@ -133,3 +133,84 @@ __kernel void sor_colour_scalar(__global const float* a_inv, __global const floa
   const int i = y * cols + x;
   ds[i] = (1 - omega) * ds[i] + omega * (rhs[i] + neighbours(ds, right, down, x, y, cols, rows)) * a_inv[i];
 }
+
+// The warp's motion tensors on the device (pg/gpu/flow_level.h): the level's derivatives once, then per
+// warp the second image's derivatives sampled at x + (u, v) and combined with the first's, in the
+// order of LevelSolver::compute_tensors.
+
+// Five-point central difference (1, -8, 0, 8, -1) / 12 along x, borders replicated: from the plane at
+// offset `from` of `planes` to the one at `to`.
+__kernel void derivative_x(__global float* planes, long from, long to, int cols, int rows) {
+  const int x = get_global_id(0), y = get_global_id(1);
+  if (x >= cols || y >= rows) return;
+  __global const float* row = planes + from + (long)y * cols;
+  const int last = cols - 1;
+  planes[to + (long)y * cols + x] = (row[clamp(x - 2, 0, last)] - 8 * row[clamp(x - 1, 0, last)] +
+                                     8 * row[clamp(x + 1, 0, last)] - row[clamp(x + 2, 0, last)]) *
+                                    (1.f / 12);
+}
+
+__kernel void derivative_y(__global float* planes, long from, long to, int cols, int rows) {
+  const int x = get_global_id(0), y = get_global_id(1);
+  if (x >= cols || y >= rows) return;
+  __global const float* in = planes + from + x;
+  const int last = rows - 1;
+  planes[to + (long)y * cols + x] =
+      (in[(long)clamp(y - 2, 0, last) * cols] - 8 * in[(long)clamp(y - 1, 0, last) * cols] +
+       8 * in[(long)clamp(y + 1, 0, last) * cols] - in[(long)clamp(y + 2, 0, last) * cols]) *
+      (1.f / 12);
+}
+
+// planes: per channel c, 12 planes from 12 * c * n: the first image's image, x, y, xx, xy, yy, then the
+// second's. b, g: the six entries 11 12 22 13 23 33 of each tensor, plane k at k * n.
+__kernel void motion_tensors(__global const float* planes, int channels, __global const float* u,
+                             __global const float* v, __global float* b, __global float* g, int cols, int rows,
+                             float zeta_squared, int normalise) {
+  const int x = get_global_id(0), y = get_global_id(1);
+  if (x >= cols || y >= rows) return;
+  const int n = cols * rows, i = y * cols + x, border = 4;
+  const float wx = (float)x + u[i], wy = (float)y + v[i];
+  const bool inside = wx >= 0 && wx <= (float)(cols - 1) && wy >= 0 && wy <= (float)(rows - 1);
+  const bool interior = inside && y >= border && y < rows - border && x >= border && x < cols - border;
+  int offset = 0;
+  float w00 = 0, w01 = 0, w10 = 0, w11 = 0;
+  if (inside) {
+    const int x0 = min((int)wx, cols - 2), y0 = min((int)wy, rows - 2);
+    const float ax = wx - (float)x0, ay = wy - (float)y0;
+    w00 = (1 - ax) * (1 - ay), w01 = ax * (1 - ay), w10 = (1 - ax) * ay, w11 = ax * ay;
+    offset = y0 * cols + x0;
+  }
+  float t[12] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+  for (int c = 0; c < channels; ++c) {
+    __global const float* first = planes + (size_t)(12 * c) * n;
+    __global const float* second = first + (size_t)6 * n;
+    float s[6];  // the second image's image, x, y, xx, xy, yy at the warped position
+    for (int k = 0; k < 6; ++k) {
+      __global const float* r0 = second + (size_t)k * n + offset;
+      __global const float* r1 = r0 + cols;
+      s[k] = w00 * r0[0] + w01 * r0[1] + w10 * r1[0] + w11 * r1[1];
+    }
+    const float i1_image = first[i], i1x = first[n + i], i1y = first[2 * n + i];
+    const float i1_xx = first[3 * n + i], i1_xy = first[4 * n + i], i1_yy = first[5 * n + i];
+    const float i2x = s[1], i2y = s[2];
+    const float ix = 0.5f * (i1x + i2x), iy = 0.5f * (i1y + i2y), it = s[0] - i1_image;
+    const float nb = normalise ? 1.f / (ix * ix + iy * iy + zeta_squared) : 1.f;
+    if (inside) {
+      t[0] += nb * ix * ix, t[1] += nb * ix * iy, t[2] += nb * iy * iy;
+      t[3] += nb * ix * it, t[4] += nb * iy * it, t[5] += nb * it * it;
+    }
+    const float ixx = 0.5f * (i1_xx + s[3]), ixy = 0.5f * (i1_xy + s[4]), iyy = 0.5f * (i1_yy + s[5]);
+    const float ixt = i2x - i1x, iyt = i2y - i1y;
+    const float ngx = normalise ? 1.f / (ixx * ixx + ixy * ixy + zeta_squared) : 1.f;
+    const float ngy = normalise ? 1.f / (ixy * ixy + iyy * iyy + zeta_squared) : 1.f;
+    if (interior) {
+      t[6] += ngx * ixx * ixx + ngy * ixy * ixy;
+      t[7] += ngx * ixx * ixy + ngy * ixy * iyy;
+      t[8] += ngx * ixy * ixy + ngy * iyy * iyy;
+      t[9] += ngx * ixx * ixt + ngy * ixy * iyt;
+      t[10] += ngx * ixy * ixt + ngy * iyy * iyt;
+      t[11] += ngx * ixt * ixt + ngy * iyt * iyt;
+    }
+  }
+  for (int k = 0; k < 6; ++k) b[k * n + i] = t[k], g[k * n + i] = t[6 + k];
+}
