@@ -230,40 +230,29 @@ class Workspace {
   }
   std::mutex mutex;
 
-  float* device(std::size_t floats) {
-    if (floats > device_floats_) {
-      cudaFree(device_);
-      device_ = nullptr, device_floats_ = 0;
-      check(cudaMalloc(&device_, floats * sizeof(float)), "allocation");
-      device_floats_ = floats;
-    }
-    return device_;
-  }
+  float* device(std::size_t floats) { return device_.at_least(floats, false); }
   // A FlowLevel's images (twelve planes per channel), apart from the warps' buffers.
-  float* images(std::size_t floats) {
-    if (floats > images_floats_) {
-      cudaFree(images_);
-      images_ = nullptr, images_floats_ = 0;
-      check(cudaMalloc(&images_, floats * sizeof(float)), "allocation");
-      images_floats_ = floats;
-    }
-    return images_;
-  }
-  float* host(std::size_t floats) {
-    if (floats > host_floats_) {
-      cudaFreeHost(host_);
-      host_ = nullptr, host_floats_ = 0;
-      check(cudaMallocHost(&host_, floats * sizeof(float)), "pinned allocation");
-      host_floats_ = floats;
-    }
-    return host_;
-  }
+  float* images(std::size_t floats) { return images_.at_least(floats, false); }
+  float* host(std::size_t floats) { return host_.at_least(floats, true); }
 
  private:
-  float* device_ = nullptr;
-  float* images_ = nullptr;
-  float* host_ = nullptr;
-  std::size_t device_floats_ = 0, images_floats_ = 0, host_floats_ = 0;
+  // Device (or pinned host) memory grown to the largest request and reused below it.
+  struct Growing {
+    float* data = nullptr;
+    std::size_t floats = 0;
+    float* at_least(std::size_t wanted, bool pinned) {
+      if (wanted > floats) {
+        pinned ? cudaFreeHost(data) : cudaFree(data);
+        data = nullptr, floats = 0;
+        check(pinned ? cudaMallocHost(&data, wanted * sizeof(float))
+                     : cudaMalloc(&data, wanted * sizeof(float)),
+              pinned ? "pinned allocation" : "allocation");
+        floats = wanted;
+      }
+      return data;
+    }
+  };
+  Growing device_, images_, host_;
 };
 
 // Gathers the inputs in pinned memory and uploads them with one copy to the start of `device`.
