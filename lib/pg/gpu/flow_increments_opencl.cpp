@@ -99,13 +99,15 @@ PlaneSource plane(const cv::Mat& m) {
   return {m.ptr<float>(), m.total() * std::size_t(m.channels())};
 }
 
-// A warp's buffers on the device: `work` slots of `n` floats taken, `uploads` filled from host planes
-// through the pinned staging area (the upload completes before any later command of the queue).
+// Host planes to copy, one after another, into a slot's buffer.
 struct Upload {
   Slot slot;
   std::vector<PlaneSource> planes;
 };
 
+// A warp's device buffers, each slot sized for n pixels (the tensors six planes, the direction two),
+// and their uploads through the pinned staging area (written before any later command of the
+// in-order queue reads them).
 class WarpBuffers {
  public:
   WarpBuffers(detail::OpenClRuntime& runtime, std::size_t n) : runtime_(runtime), n_(n) {}
