@@ -539,11 +539,10 @@ bool LevelSolver::device_line_increments(const cv::Mat1f& s, const cv::Mat2f& di
   return run_on_device([&] { gpu::line_increments(in, du_); });
 }
 
-std::unique_ptr<gpu::FlowLevel> LevelSolver::device_level(gpu::IncrementMode mode) const {
+std::unique_ptr<gpu::FlowLevel> LevelSolver::device_level() const {
   if (options_.clg_rho > 0) return nullptr;
   const int channels = static_cast<int>(images_->from.size());
-  if (!gpu::fits_on(gpu::level_footprint(images_->size(), channels, mode), gpu::flow_device_info()))
-    return nullptr;
+  if (!gpu::fits_on(gpu::level_footprint(images_->size(), channels), gpu::flow_device_info())) return nullptr;
   std::vector<cv::Mat1f> from, to;
   for (int c = 0; c < channels; ++c) {
     from.push_back(continuous(images_->from[c].image));
@@ -569,7 +568,7 @@ std::array<cv::Mat1f, 12> LevelSolver::tensors(const LevelImages& images, const 
 void LevelSolver::solve(const LevelImages& images, cv::Mat1f& u, cv::Mat1f& v) {
   start_level(images);
   bool on_device = use_device(gpu::IncrementMode::free);
-  std::unique_ptr<gpu::FlowLevel> level = on_device ? device_level(gpu::IncrementMode::free) : nullptr;
+  std::unique_ptr<gpu::FlowLevel> level = on_device ? device_level() : nullptr;
   for (int warp = 0; warp < options_.warps; ++warp) {
     if (level && !run_on_device([&] { level->flow_increments(u, v, increment_options(), du_, dv_); }))
       level.reset(), on_device = false;
@@ -652,7 +651,7 @@ void LevelSolver::solve_along(const LevelImages& images, cv::Mat1f& s, const cv:
                               const cv::Mat2f& direction) {
   start_level(images);
   bool on_device = use_device(gpu::IncrementMode::line);
-  std::unique_ptr<gpu::FlowLevel> level = on_device ? device_level(gpu::IncrementMode::line) : nullptr;
+  std::unique_ptr<gpu::FlowLevel> level = on_device ? device_level() : nullptr;
   const cv::Mat2f continuous_direction = direction.isContinuous() ? direction : cv::Mat2f(direction.clone());
   cv::Mat1f u = pool_.take(rows_, cols_), v = pool_.take(rows_, cols_);
   cv::Mat1f& ds = du_;  // the increment of s; dv_ is unused in this mode

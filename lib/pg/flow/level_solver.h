@@ -94,7 +94,7 @@ class LevelSolver {
   bool use_device(gpu::IncrementMode mode) const;
   // This level on the active device for whole warps, or null where it does not fit, the tensors are
   // blurred (CLG) or the upload fails (then the tensors stay here).
-  std::unique_ptr<gpu::FlowLevel> device_level(gpu::IncrementMode mode) const;
+  std::unique_ptr<gpu::FlowLevel> device_level() const;
   // One warp's increments du_, dv_ (free mode) from the current tensors, on the CPU or the device
   // (false when the device failed: the caller falls back to the CPU).
   void cpu_increments(const cv::Mat1f& u, const cv::Mat1f& v);

@@ -95,10 +95,6 @@ class Workspace {
   std::size_t staging_floats_ = 0;
 };
 
-PlaneSource plane(const cv::Mat& m) {
-  return {m.ptr<float>(), m.total() * std::size_t(m.channels())};
-}
-
 // Host planes to copy, one after another, into a slot's buffer.
 struct Upload {
   Slot slot;
@@ -134,12 +130,6 @@ class WarpBuffers {
   detail::OpenClRuntime& runtime_;
   std::size_t n_;
 };
-
-std::vector<PlaneSource> tensor_planes(const std::array<cv::Mat1f, 6>& tensor) {
-  std::vector<PlaneSource> planes;
-  for (const cv::Mat1f& m : tensor) planes.push_back(plane(m));
-  return planes;
-}
 
 void check_allocation(detail::OpenClRuntime& runtime, std::size_t n, const char* what, int cols, int rows) {
   if (6 * n * sizeof(float) > runtime.info().max_allocation)
@@ -243,9 +233,9 @@ class OpenClFlowLevel final : public detail::FlowLevelBackend {
     check_allocation(runtime, n, "flow level", cols_, rows_);
     // The smoothness weight, and each channel's two images into the first of their six planes.
     cl::Buffer& planes = Workspace::get().buffer(images, 12 * channels_ * n, runtime.context());
-    std::vector<PlaneSource> sources{plane(smoothness)};
+    std::vector<PlaneSource> sources{detail::plane_source(smoothness)};
     for (int c = 0; c < channels_; ++c)
-      for (const cv::Mat1f* image : {&from[c], &to[c]}) sources.push_back(plane(*image));
+      for (const cv::Mat1f* image : {&from[c], &to[c]}) sources.push_back(detail::plane_source(*image));
     float* staging =
         Workspace::get().staging(detail::total_floats(sources), runtime.context(), runtime.queue());
     detail::gather(sources, staging);
@@ -288,7 +278,9 @@ class OpenClFlowLevel final : public detail::FlowLevelBackend {
                        const cv::Mat2f& line_direction, const FlowIncrementOptions& o,
                        cv::Mat1f& ds) override {
     guarded([&] {
-      warp_tensors(flow_u, flow_v, {{s, {plane(line_s)}}, {direction, {plane(line_direction)}}});
+      warp_tensors(
+          flow_u, flow_v,
+          {{s, {detail::plane_source(line_s)}}, {direction, {detail::plane_source(line_direction)}}});
       enqueue_line_iterations(runtime_, buffers_, cols_, rows_, o);
       download(runtime_.queue(), buffers_[du], rows_, cols_, ds, true);
     });
@@ -320,8 +312,8 @@ class OpenClFlowLevel final : public detail::FlowLevelBackend {
 
   // Uploads (u, v) and `more`, and computes the tensors into the brightness and gradient buffers.
   void warp_tensors(const cv::Mat1f& flow_u, const cv::Mat1f& flow_v, std::vector<Upload> more = {}) {
-    more.push_back({u, {plane(flow_u)}});
-    more.push_back({v, {plane(flow_v)}});
+    more.push_back({u, {detail::plane_source(flow_u)}});
+    more.push_back({v, {detail::plane_source(flow_v)}});
     buffers_.upload(more);
     cl::Program& program = runtime_.program("flow_increments", kernels::flow_increments);
     cl::Kernel kernel(program, "motion_tensors");
@@ -351,11 +343,11 @@ void flow_increments_opencl(const FlowIncrementInput& in, cv::Mat1f& out_du, cv:
   try {
     const std::lock_guard lock(Workspace::get().mutex);
     WarpBuffers b(*runtime, in.u.total());
-    b.upload({{brightness, tensor_planes(in.brightness)},
-              {gradient, tensor_planes(in.gradient)},
-              {u, {plane(in.u)}},
-              {v, {plane(in.v)}},
-              {alpha, {plane(in.smoothness)}}});
+    b.upload({{brightness, detail::tensor_sources(in.brightness)},
+              {gradient, detail::tensor_sources(in.gradient)},
+              {u, {detail::plane_source(in.u)}},
+              {v, {detail::plane_source(in.v)}},
+              {alpha, {detail::plane_source(in.smoothness)}}});
     enqueue_free_iterations(*runtime, b, cols, rows, in.options);
     download(runtime->queue(), b[du], rows, cols, out_du, false);
     download(runtime->queue(), b[dv], rows, cols, out_dv, true);
@@ -372,11 +364,11 @@ void line_increments_opencl(const LineIncrementInput& in, cv::Mat1f& ds) {
   try {
     const std::lock_guard lock(Workspace::get().mutex);
     WarpBuffers b(*runtime, in.s.total());
-    b.upload({{brightness, tensor_planes(in.brightness)},
-              {gradient, tensor_planes(in.gradient)},
-              {s, {plane(in.s)}},
-              {alpha, {plane(in.smoothness)}},
-              {direction, {plane(in.direction)}}});
+    b.upload({{brightness, detail::tensor_sources(in.brightness)},
+              {gradient, detail::tensor_sources(in.gradient)},
+              {s, {detail::plane_source(in.s)}},
+              {alpha, {detail::plane_source(in.smoothness)}},
+              {direction, {detail::plane_source(in.direction)}}});
     enqueue_line_iterations(*runtime, b, cols, rows, in.options);
     download(runtime->queue(), b[du], rows, cols, ds, true);
   } catch (const cl::Error& e) {

@@ -38,7 +38,7 @@ std::array<cv::Mat1f, 12> FlowLevel::tensors(const cv::Mat1f& u, const cv::Mat1f
   return backend_->tensors(u, v);
 }
 
-DeviceFootprint level_footprint(cv::Size size, int channels, IncrementMode) {
+DeviceFootprint level_footprint(cv::Size size, int channels) {
   const std::uint64_t plane = std::uint64_t(std::max(size.area(), 0)) * sizeof(float);
   // The images' planes (six per channel and image, one buffer), and every buffer of either mode's
   // warps: tensors (12), u, v, s, direction (2), smoothness, the increments and the work planes (12).

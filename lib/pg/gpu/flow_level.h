@@ -49,7 +49,7 @@ class FlowLevel {
 
 // Device memory a FlowLevel and its warps need, in either mode (all buffers; the largest is the
 // level's images).
-DeviceFootprint level_footprint(cv::Size size, int channels, IncrementMode mode);
+DeviceFootprint level_footprint(cv::Size size, int channels);
 
 namespace detail {
 

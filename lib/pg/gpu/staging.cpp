@@ -7,33 +7,29 @@
 #include <cstring>
 
 namespace pg::gpu::detail {
-namespace {
 
-PlaneSource plane(const cv::Mat& m) {
+PlaneSource plane_source(const cv::Mat& m) {
   return {m.ptr<float>(), m.total() * std::size_t(m.channels())};
 }
 
-void add_tensor(std::vector<PlaneSource>& planes, const std::array<cv::Mat1f, 6>& tensor) {
-  for (const cv::Mat1f& entry : tensor) planes.push_back(plane(entry));
+std::vector<PlaneSource> tensor_sources(const std::array<cv::Mat1f, 6>& tensor) {
+  std::vector<PlaneSource> planes;
+  for (const cv::Mat1f& entry : tensor) planes.push_back(plane_source(entry));
+  return planes;
 }
 
-}  // namespace
-
 std::vector<PlaneSource> upload_planes(const FlowIncrementInput& in) {
-  std::vector<PlaneSource> planes;
-  add_tensor(planes, in.brightness);
-  add_tensor(planes, in.gradient);
-  for (const cv::Mat1f* m : {&in.u, &in.v, &in.smoothness}) planes.push_back(plane(*m));
+  std::vector<PlaneSource> planes = tensor_sources(in.brightness), gradient = tensor_sources(in.gradient);
+  planes.insert(planes.end(), gradient.begin(), gradient.end());
+  for (const cv::Mat1f* m : {&in.u, &in.v, &in.smoothness}) planes.push_back(plane_source(*m));
   return planes;
 }
 
 std::vector<PlaneSource> upload_planes(const LineIncrementInput& in) {
-  std::vector<PlaneSource> planes;
-  add_tensor(planes, in.brightness);
-  add_tensor(planes, in.gradient);
-  planes.push_back(plane(in.s));
-  planes.push_back(plane(in.smoothness));
-  planes.push_back(plane(in.direction));
+  std::vector<PlaneSource> planes = tensor_sources(in.brightness), gradient = tensor_sources(in.gradient);
+  planes.insert(planes.end(), gradient.begin(), gradient.end());
+  for (const cv::Mat* m : std::initializer_list<const cv::Mat*>{&in.s, &in.smoothness, &in.direction})
+    planes.push_back(plane_source(*m));
   return planes;
 }
 

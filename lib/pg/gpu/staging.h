@@ -14,6 +14,10 @@ struct PlaneSource {
   std::size_t floats;
 };
 
+// A continuous float matrix's data (all its channels), and a tensor's six planes in order.
+PlaneSource plane_source(const cv::Mat& m);
+std::vector<PlaneSource> tensor_sources(const std::array<cv::Mat1f, 6>& tensor);
+
 // Free mode: brightness (6 planes), gradient (6), u, v, smoothness: 15 planes.
 std::vector<PlaneSource> upload_planes(const FlowIncrementInput& input);
 // Line mode: brightness (6), gradient (6), s, smoothness, direction (2 interleaved): 16 planes.

@@ -328,9 +328,9 @@ class CudaFlowLevel final : public FlowLevelBackend {
         zeta_squared_(zeta_squared) {
     base_ = workspace_.device(28 * n_);
     images_ = workspace_.images(12 * channels_ * n_);
-    std::vector<PlaneSource> sources{{smoothness.ptr<float>(), n_}};
+    std::vector<PlaneSource> sources{plane_source(smoothness)};
     for (int c = 0; c < channels_; ++c)
-      for (const cv::Mat1f* image : {&from[c], &to[c]}) sources.push_back({image->ptr<float>(), n_});
+      for (const cv::Mat1f* image : {&from[c], &to[c]}) sources.push_back(plane_source(*image));
     float* staging = workspace_.host(total_floats(sources));
     gather(sources, staging);
     check(cudaMemcpy(plane(alpha), staging, n_ * sizeof(float), cudaMemcpyHostToDevice), "upload");
@@ -360,7 +360,7 @@ class CudaFlowLevel final : public FlowLevelBackend {
 
   void line_increments(const cv::Mat1f& u, const cv::Mat1f& v, const cv::Mat1f& s, const cv::Mat2f& direction,
                        const FlowIncrementOptions& o, cv::Mat1f& ds) override {
-    warp_tensors(u, v, {{s.ptr<float>(), n_}, {direction.ptr<float>(), 2 * n_}});
+    warp_tensors(u, v, {plane_source(s), plane_source(direction)});
     const System full = system();
     launch_line_iterations(plane(b), plane(g), plane(line_s), plane(alpha), plane(line_direction), plane(d_u),
                            plane(psi), plane(right), plane(down), LineSystem{full.a11_inv, full.rhs1}, cols_,
@@ -400,8 +400,8 @@ class CudaFlowLevel final : public FlowLevelBackend {
 
   // Uploads (u, v) after `more` (s and direction, placed from plane line_s on), then the tensors.
   void warp_tensors(const cv::Mat1f& u, const cv::Mat1f& v, std::vector<PlaneSource> more) {
-    more.push_back({u.ptr<float>(), n_});
-    more.push_back({v.ptr<float>(), n_});
+    more.push_back(plane_source(u));
+    more.push_back(plane_source(v));
     const std::size_t floats = total_floats(more);
     float* staging = workspace_.host(floats);
     gather(more, staging);
