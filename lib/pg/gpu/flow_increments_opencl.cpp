@@ -137,6 +137,25 @@ void check_allocation(detail::OpenClRuntime& runtime, std::size_t n, const char*
                           runtime.info().max_allocation >> 20, " MiB allocation limit"));
 }
 
+// The fixed-point rounds of either mode, their kernels' arguments set: the robust weights, the edge
+// weights and the system per round, then the red-black SOR sweeps (the colour is the SOR kernel's
+// argument `colour_arg`).
+void enqueue_rounds(cl::CommandQueue& queue, cl::Kernel& smoothness, cl::Kernel& edge_weights,
+                    cl::Kernel& system, cl::Kernel& sor_colour, cl_uint colour_arg, int cols, int rows,
+                    const FlowIncrementOptions& o) {
+  const cl::NDRange pixels = round_up(cols, rows), half = round_up((cols + 1) / 2, rows);
+  for (int iteration = 0; iteration < o.fixed_point_iterations; ++iteration) {
+    queue.enqueueNDRangeKernel(smoothness, cl::NullRange, pixels, group);
+    queue.enqueueNDRangeKernel(edge_weights, cl::NullRange, pixels, group);
+    queue.enqueueNDRangeKernel(system, cl::NullRange, pixels, group);
+    for (int sweep = 0; sweep < o.sor_iterations; ++sweep)
+      for (int colour = 0; colour < 2; ++colour) {
+        sor_colour.setArg(colour_arg, colour);
+        queue.enqueueNDRangeKernel(sor_colour, cl::NullRange, half, group);
+      }
+  }
+}
+
 // The fixed-point iterations of the free mode on the workspace's buffers: the tensors, u, v and alpha
 // in; du, dv out.
 void enqueue_free_iterations(detail::OpenClRuntime& runtime, WarpBuffers& b, int cols, int rows,
@@ -163,17 +182,7 @@ void enqueue_free_iterations(detail::OpenClRuntime& runtime, WarpBuffers& b, int
   for (Slot slot : {a11_inv, a22_inv, a12, rhs1, rhs2, right, down, du, dv}) sor_colour.setArg(k++, b[slot]);
   sor_colour.setArg(9, cols), sor_colour.setArg(10, rows), sor_colour.setArg(11, o.omega);
 
-  const cl::NDRange pixels = round_up(cols, rows), half = round_up((cols + 1) / 2, rows);
-  for (int iteration = 0; iteration < o.fixed_point_iterations; ++iteration) {
-    queue.enqueueNDRangeKernel(smoothness, cl::NullRange, pixels, group);
-    queue.enqueueNDRangeKernel(edge_weights, cl::NullRange, pixels, group);
-    queue.enqueueNDRangeKernel(linear_system, cl::NullRange, pixels, group);
-    for (int sweep = 0; sweep < o.sor_iterations; ++sweep)
-      for (int colour = 0; colour < 2; ++colour) {
-        sor_colour.setArg(12, colour);
-        queue.enqueueNDRangeKernel(sor_colour, cl::NullRange, half, group);
-      }
-  }
+  enqueue_rounds(queue, smoothness, edge_weights, linear_system, sor_colour, 12, cols, rows, o);
 }
 
 // The same for the epipolar mode: the tensors, s, alpha and direction in; ds (in du) out.
@@ -199,17 +208,7 @@ void enqueue_line_iterations(detail::OpenClRuntime& runtime, WarpBuffers& b, int
   for (Slot slot : {a11_inv, rhs1, right, down, du}) sor_colour.setArg(k++, b[slot]);
   sor_colour.setArg(5, cols), sor_colour.setArg(6, rows), sor_colour.setArg(7, o.omega);
 
-  const cl::NDRange pixels = round_up(cols, rows), half = round_up((cols + 1) / 2, rows);
-  for (int iteration = 0; iteration < o.fixed_point_iterations; ++iteration) {
-    queue.enqueueNDRangeKernel(smoothness, cl::NullRange, pixels, group);
-    queue.enqueueNDRangeKernel(edge_weights, cl::NullRange, pixels, group);
-    queue.enqueueNDRangeKernel(line_system, cl::NullRange, pixels, group);
-    for (int sweep = 0; sweep < o.sor_iterations; ++sweep)
-      for (int colour = 0; colour < 2; ++colour) {
-        sor_colour.setArg(8, colour);
-        queue.enqueueNDRangeKernel(sor_colour, cl::NullRange, half, group);
-      }
-  }
+  enqueue_rounds(queue, smoothness, edge_weights, line_system, sor_colour, 8, cols, rows, o);
 }
 
 void download(cl::CommandQueue& queue, cl::Buffer& buffer, int rows, int cols, cv::Mat1f& out, bool wait) {
