@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -117,6 +118,58 @@ TEST(Bilinear, ResizeMapsPixelCentres) {
     for (int x = 1; x < 79; ++x)
       ASSERT_NEAR(up(y, x), ((x + 0.5) / 2 - 0.5) + 2 * ((y + 0.5) / 2 - 0.5), 1e-4);
   EXPECT_FLOAT_EQ(up(0, 0), image(0, 0));  // -0.25 clamps to the border
+}
+
+cv::Mat1f random_image(cv::Size size, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> value(0.f, 1.f);
+  cv::Mat1f image(size);
+  for (float& v : image) v = value(rng);
+  return image;
+}
+
+TEST(Bilinear, ResizeEqualsSamplingEveryPixel) {
+  const cv::Mat1f image = random_image({37, 23}, 3);
+  for (const cv::Size size : {cv::Size(18, 11), cv::Size(80, 50), cv::Size(37, 5), cv::Size(1, 1)}) {
+    const cv::Mat1f resized = resize_bilinear(image, size);
+    const double sx = 37.0 / size.width, sy = 23.0 / size.height;
+    for (int y = 0; y < size.height; ++y)
+      for (int x = 0; x < size.width; ++x)
+        ASSERT_EQ(resized(y, x), sample_bilinear(image, static_cast<float>((x + 0.5) * sx - 0.5),
+                                                 static_cast<float>((y + 0.5) * sy - 0.5)))
+            << size << " at " << x << "," << y;
+  }
+}
+
+// The blur is the clamped-border convolution, summed tap by tap from the left, whatever the image's
+// width against the kernel's (here one 3 pixels wide under a kernel 19 wide).
+TEST(Blur, EqualsTheClampedConvolutionExactly) {
+  for (const cv::Size size : {cv::Size(29, 13), cv::Size(3, 7)}) {
+    const cv::Mat1f image = random_image(size, 5);
+    const double sigma = 3.0;
+    const int radius = 9;
+    std::vector<float> kernel(2 * radius + 1);
+    double sum = 0;
+    for (int k = -radius; k <= radius; ++k) sum += std::exp(-0.5 * k * k / (sigma * sigma));
+    for (int k = -radius; k <= radius; ++k)
+      kernel[k + radius] = static_cast<float>(std::exp(-0.5 * k * k / (sigma * sigma)) / sum);
+    cv::Mat1f horizontal(size), expected(size, 0.f);
+    for (int y = 0; y < size.height; ++y)
+      for (int x = 0; x < size.width; ++x) {
+        float s = 0;
+        for (int k = -radius; k <= radius; ++k)
+          s += kernel[k + radius] * image(y, std::clamp(x + k, 0, size.width - 1));
+        horizontal(y, x) = s;
+      }
+    for (int y = 0; y < size.height; ++y)
+      for (int k = -radius; k <= radius; ++k)
+        for (int x = 0; x < size.width; ++x)
+          expected(y, x) += kernel[k + radius] * horizontal(std::clamp(y + k, 0, size.height - 1), x);
+    const cv::Mat1f blurred = gaussian_blur(image, sigma);
+    for (int y = 0; y < size.height; ++y)
+      for (int x = 0; x < size.width; ++x)
+        ASSERT_EQ(blurred(y, x), expected(y, x)) << size << " at " << x << "," << y;
+  }
 }
 
 TEST(Blur, PreservesRampsInsideAndSumOfAnImpulse) {
