@@ -1,6 +1,5 @@
 // pg-eval: evaluates a stage's output against ground truth (formats/eval-report.md).
 #include <iostream>
-#include <opencv2/imgcodecs.hpp>
 
 #include "common/cli.h"
 #include "pg/camera/cameras_io.h"
@@ -14,6 +13,7 @@
 #include "pg/eval/flow_eval.h"
 #include "pg/eval/mesh_eval.h"
 #include "pg/image/depth_exr.h"
+#include "pg/image/image_io.h"
 #include "pg/mesh/mesh_io.h"
 
 namespace fs = std::filesystem;
@@ -44,13 +44,14 @@ void finish(const Common& c, const std::string& kind, const nlohmann::json& resu
   if (!c.out.empty()) pg::write_eval_report(c.out, kind, c.estimate, c.truth, result);
 }
 
+// A mask's set pixels are its nonzero ones (in any channel); read like every other image, so the same
+// formats and size limits apply.
 cv::Mat1b read_mask(const std::string& path, const cv::Size& size) {
-  cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
-  if (image.empty()) throw pg::InputError(path, "cannot read the mask image");
+  const cv::Mat image = pg::read_image(path, pg::ReadMode::gray_float);
   if (image.size() != size)
     throw pg::InputError(path, pg::str("mask is ", image.cols, "x", image.rows, " but the flow is ",
                                        size.width, "x", size.height));
-  return image;
+  return image > 0;
 }
 
 void check_same_size(const std::string& estimate, const cv::Size& e, const cv::Size& t) {

@@ -2,7 +2,11 @@
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStdIO.h>
+#include <OpenEXR/ImfTileDescription.h>
+#include <OpenEXR/ImfXdr.h>
 #include <OpenEXR/openexr.h>
 
 #include <cstdint>
@@ -144,6 +148,57 @@ void check_attribute_sizes(const fs::path& path) {
   }
 }
 
+// Scanlines OpenEXR decodes together for a compression (its line buffers hold this many lines).
+int lines_per_chunk(Imf::Compression compression) {
+  switch (compression) {
+    case Imf::ZIP_COMPRESSION:
+    case Imf::PXR24_COMPRESSION:
+      return 16;
+    case Imf::PIZ_COMPRESSION:
+    case Imf::B44_COMPRESSION:
+    case Imf::B44A_COMPRESSION:
+    case Imf::DWAA_COMPRESSION:
+      return 32;
+    case Imf::DWAB_COMPRESSION:
+      return 256;
+    default:
+      return 1;
+  }
+}
+
+// The header as Imf::InputFile will read it, checked before InputFile sizes its buffers from it. The
+// core library that preflight uses can read a corrupt header differently (a box2i attribute whose
+// declared size is wrong: the core keeps a default window, Imf reads the 16 bytes), so a file that
+// passes the core check could still make InputFile allocate gigabytes for one chunk of lines.
+void check_imf_buffers(const fs::path& path) {
+  Imf::Header header;
+  try {
+    Imf::StdIFStream in(path.c_str());
+    int magic = 0, version = 0;
+    Imf::Xdr::read<Imf::StreamIO>(in, magic);
+    Imf::Xdr::read<Imf::StreamIO>(in, version);
+    header.readFrom(in, version);
+  } catch (const std::exception& e) {
+    throw InputError(path, std::string("cannot read the OpenEXR header: ") + e.what());
+  }
+  const Imath::Box2i window = header.dataWindow();
+  const std::int64_t width = std::int64_t{window.max.x} - window.min.x + 1;
+  const std::int64_t height = std::int64_t{window.max.y} - window.min.y + 1;
+  check_image_size(path, width, height);
+  std::int64_t bytes_per_pixel = 0;
+  for (auto c = header.channels().begin(); c != header.channels().end(); ++c)
+    bytes_per_pixel += c.channel().type == Imf::HALF ? 2 : 4;
+  std::int64_t chunk_pixels = width * lines_per_chunk(header.compression());
+  if (header.hasTileDescription()) {
+    const Imf::TileDescription& tile = header.tileDescription();
+    chunk_pixels = std::int64_t{tile.xSize} * tile.ySize;
+  }
+  const std::int64_t chunk_bytes = chunk_pixels * bytes_per_pixel;
+  if (chunk_bytes > max_exr_chunk_bytes)
+    throw InputError(path, str("OpenEXR chunk of ", chunk_bytes, " bytes (", chunk_pixels, " pixels of ",
+                               bytes_per_pixel, " bytes) exceeds the limit of ", max_exr_chunk_bytes));
+}
+
 }  // namespace
 
 cv::Size preflight(const fs::path& path) {
@@ -167,6 +222,7 @@ cv::Size preflight(const fs::path& path) {
   const std::int64_t width = std::int64_t{window.max.x} - window.min.x + 1;
   const std::int64_t height = std::int64_t{window.max.y} - window.min.y + 1;
   check_image_size(path, width, height);
+  check_imf_buffers(path);
   return {static_cast<int>(width), static_cast<int>(height)};
 }
 

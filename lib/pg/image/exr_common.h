@@ -3,6 +3,7 @@
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <opencv2/core.hpp>
@@ -11,9 +12,14 @@
 
 namespace pg::exr {
 
-// Reads only the header with OpenEXR's core library, which allocates nothing per scanline, and
-// rejects non-EXR files, deep images and data windows beyond max_image_pixels / max_image_side.
-// Returns the data window size. Throws InputError.
+// The most one chunk of an EXR (the scanlines decoded together, or one tile, over all channels) may
+// take: OpenEXR allocates its line or tile buffers from the header before reading any pixel.
+inline constexpr std::int64_t max_exr_chunk_bytes = std::int64_t{256} << 20;
+
+// Reads only the header, with OpenEXR's core library and then as Imf::InputFile will (neither
+// allocates per scanline), and rejects non-EXR files, deep images, data windows beyond
+// max_image_pixels / max_image_side and chunks beyond max_exr_chunk_bytes. Returns the data window
+// size. Throws InputError.
 cv::Size preflight(const std::filesystem::path& path);
 
 // Runs preflight() and opens the file; OpenEXR exceptions become InputError.

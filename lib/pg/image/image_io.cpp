@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+#include <string_view>
 
 #include "pg/core/atomic_file.h"
 #include "pg/core/error.h"
@@ -165,7 +166,34 @@ cv::Mat read_exr_image(const fs::path& path) {
   return image;
 }
 
+// The formats pg hands to OpenCV, by their leading bytes. OpenCV would also try JPEG 2000, DICOM
+// (GDCM) and others whose decoders are not hardened against hostile files (GDCM aborts on some), so
+// anything else is refused before decoding.
+bool opencv_format_supported(const fs::path& path) {
+  std::ifstream in = open_binary(path);
+  std::array<unsigned char, 12> head{};
+  in.read(reinterpret_cast<char*>(head.data()), head.size());
+  const std::size_t n = static_cast<std::size_t>(in.gcount());
+  const auto is = [&](std::size_t offset, std::string_view magic) {
+    return n >= offset + magic.size() && std::memcmp(head.data() + offset, magic.data(), magic.size()) == 0;
+  };
+  const bool png = is(0, std::string_view(reinterpret_cast<const char*>(png_signature.data()), 8));
+  const bool jpeg = is(0, "\xff\xd8\xff");
+  const bool tiff = is(0, std::string_view("II*\0", 4)) || is(0, std::string_view("MM\0*", 4)) ||
+                    is(0, std::string_view("II+\0", 4)) || is(0, std::string_view("MM\0+", 4));
+  const bool radiance = is(0, "#?");
+  const bool bmp = is(0, "BM");
+  const bool webp = is(0, "RIFF") && is(8, "WEBP");
+  const bool netpbm =
+      n >= 2 && head[0] == 'P' && ((head[1] >= '1' && head[1] <= '7') || head[1] == 'F' || head[1] == 'f');
+  return png || jpeg || tiff || radiance || bmp || webp || netpbm;
+}
+
 cv::Mat read_with_opencv(const fs::path& path) {
+  if (!opencv_format_supported(path))
+    throw InputError(path,
+                     "not an image format pg reads (PNG, JPEG, TIFF, OpenEXR, Radiance HDR, BMP, WebP, "
+                     "PNM/PAM/PFM)");
   peek_image_size(path);  // throws for oversized or corrupt headers before decoding
   cv::Mat image;
   try {

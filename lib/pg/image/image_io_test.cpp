@@ -1,14 +1,18 @@
 #include "pg/image/image_io.h"
 
 #include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <random>
 
+#include "pg/build_info.h"
 #include "pg/core/error.h"
 #include "pg/testing/testing.h"
 
@@ -160,7 +164,7 @@ TEST(ImageIo, RejectsMissingCorruptAndOversizedFiles) {
   testing::TempDir dir;
   expect_input_error(dir / "absent.png", "does not exist");
   testing::write_text(dir / "text.png", "this is not an image");
-  expect_input_error(dir / "text.png", "cannot decode");
+  expect_input_error(dir / "text.png", "not an image format pg reads");
   testing::write_text(dir / "text.exr", "v/1\x01 but not really an EXR");
   expect_input_error(dir / "text.exr", "not a readable OpenEXR");
 
@@ -172,9 +176,72 @@ TEST(ImageIo, RejectsMissingCorruptAndOversizedFiles) {
   testing::write_text(dir / "huge.png", bytes);
   expect_input_error(dir / "huge.png", "exceeds the limit");
 
-  // A truncated PNG fails cleanly.
+  // A truncated PNG, or BMP, fails cleanly.
   testing::write_text(dir / "cut.png", testing::read_text(dir / "small.png").substr(0, 40));
   expect_input_error(dir / "cut.png", "cannot decode");
+  testing::write_text(dir / "cut.bmp", "BM and nothing after");
+  expect_input_error(dir / "cut.bmp", "cannot decode");
+}
+
+// OpenCV would try every decoder it was built with; pg hands it only the formats formats/images.md
+// lists. A DICOM file made GDCM abort the process (fuzz_image), and JPEG 2000 goes the same way.
+TEST(ImageIo, DecodesOnlyTheListedFormats) {
+  testing::TempDir dir;
+  const fs::path dicom =
+      fs::path(build_info::source_dir) / "testdata" / "fuzz-regressions" / "image" / "dicom-gdcm-assert.img";
+  expect_input_error(dicom, "not an image format pg reads");
+  testing::write_text(dir / "preamble.dcm", std::string(128, '\0') + "DICM" + std::string(64, '\0'));
+  expect_input_error(dir / "preamble.dcm", "not an image format pg reads");
+  testing::write_text(dir / "image.jp2", std::string("\0\0\0\x0cjP  \r\n\x87\n", 12) + std::string(64, '\0'));
+  expect_input_error(dir / "image.jp2", "not an image format pg reads");
+
+  // The other listed formats still decode (OpenCV writes them here).
+  const cv::Mat grey = random_image({13, 7}, CV_8UC1, 3), colour = random_image({13, 7}, CV_8UC3, 4);
+  for (const char* name : {"grey.bmp", "grey.pgm", "colour.ppm", "colour.bmp", "colour.tif"}) {
+    const cv::Mat& image = name[0] == 'g' ? grey : colour;
+    ASSERT_TRUE(cv::imwrite((dir / name).string(), image)) << name;
+    EXPECT_TRUE(bit_identical(read_image(dir / name), image)) << name;
+  }
+}
+
+// A header that OpenEXR's core library and Imf::InputFile read differently (a box2i attribute with a
+// wrong declared size: the core kept a default 64 x 64 window, Imf a 33423056 x 29185 one, for which
+// InputFile allocated 2 GB per chunk of lines). Found by fuzz_depth_exr; refused from the header now.
+TEST(ImageIo, ExrWindowIsCheckedAsOpenExrItselfReadsIt) {
+  const fs::path file = fs::path(build_info::source_dir) / "testdata" / "fuzz-regressions" / "image" /
+                        "exr-box2i-wrong-size-huge-window.exr";
+  expect_input_error(file, "33423056 x 29185 pixels exceeds the limit");
+}
+
+// OpenEXR sizes its line buffers from the header before reading a pixel: a DWAB file (256 lines a
+// chunk) of five FLOAT channels 65536 pixels wide asks 335 MB for one chunk, though its one line is
+// within the image size limit.
+TEST(ImageIo, ExrChunkBeyondTheBoundIsRefusedFromTheHeader) {
+  testing::TempDir dir;
+  Imf::Header header(64, 1);
+  header.compression() = Imf::DWAB_COMPRESSION;
+  cv::Mat1f line(1, 64, 0.5f);
+  Imf::FrameBuffer buffer;
+  for (const char* name : {"A", "B", "G", "R", "Z"}) {
+    header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+    buffer.insert(name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(line.ptr<float>()), sizeof(float), 0));
+  }
+  {
+    Imf::OutputFile out((dir / "wide.exr").c_str(), header);
+    out.setFrameBuffer(buffer);
+    out.writePixels(1);
+  }
+  EXPECT_EQ(read_image(dir / "wide.exr").cols, 64);
+  // Both windows widened to 65536 in the header (box2i: xmin, ymin, xmax, ymax after the size).
+  std::string bytes = testing::read_text(dir / "wide.exr");
+  for (const std::string name : {"dataWindow", "displayWindow"}) {
+    const std::size_t at = bytes.find(name + std::string("\0box2i\0", 7));
+    ASSERT_NE(at, std::string::npos) << name;
+    const std::int32_t max_x = 65535;
+    std::memcpy(&bytes[at + name.size() + 7 + 4 + 8], &max_x, sizeof max_x);
+  }
+  testing::write_text(dir / "wide.exr", bytes);
+  expect_input_error(dir / "wide.exr", "OpenEXR chunk of 335544320 bytes");
 }
 
 TEST(ImageIo, SizeBoundsAreChecked) {
