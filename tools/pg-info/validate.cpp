@@ -2,8 +2,6 @@
 
 #include <algorithm>
 
-#include <ImfHeader.h>
-#include <ImfInputFile.h>
 #include "pg/camera/cameras_io.h"
 
 #include "pg/core/error.h"
@@ -26,16 +24,6 @@ std::string lower_extension(const fs::path& path) {
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   return ext;
-}
-
-// A pg depth EXR names its format in the header; other EXRs are plain images.
-bool is_pg_depth_exr(const fs::path& path) {
-  try {
-    Imf::InputFile file(path.c_str());
-    return file.header().find("pg/format") != file.header().end();
-  } catch (const std::exception&) {
-    return false;  // read_image reports what is wrong with it
-  }
 }
 
 std::string validate_json(const fs::path& path) {

@@ -163,6 +163,15 @@ void write_depth_exr(const fs::path& path, const DepthMap& map) {
   write_atomically(path, [&](const fs::path& tmp) { exr::write_slices(tmp, header, slices); });
 }
 
+bool is_pg_depth_exr(const fs::path& path) {
+  try {
+    const std::unique_ptr<Imf::InputFile> file = exr::open(path);
+    return file->header().find("pg/format") != file->header().end();
+  } catch (const InputError&) {
+    return false;
+  }
+}
+
 DepthMap read_depth_exr(const fs::path& path) {
   std::unique_ptr<Imf::InputFile> file = exr::open(path);
   const Imf::Header& header = file->header();

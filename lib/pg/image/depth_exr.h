@@ -38,6 +38,11 @@ struct DepthMap {
 // window, an unknown depth kind or perspective_z with an equirectangular camera.
 DepthMap read_depth_exr(const std::filesystem::path& path);
 
+// True when `path` is an OpenEXR file whose header names a pg format (a depth map); false for any other
+// file, a damaged one included (its reader says what is wrong). Reads the header only, with the same
+// checks before allocating as read_depth_exr.
+bool is_pg_depth_exr(const std::filesystem::path& path);
+
 // Writes atomically. Throws OutputError for an inconsistent DepthMap (types, sizes, kind vs camera).
 void write_depth_exr(const std::filesystem::path& path, const DepthMap& map);
 

@@ -264,9 +264,10 @@ TEST(DepthExr, RejectsFilesThatDoNotFollowTheFormat) {
   expect_rejected(variant("provenance.exr", [](RawExr& r) { r.strings["pg/provenance"] = "[1, 2]"; }),
                   "pg/provenance is not a JSON object");
   // Provenance is informational: a field of the wrong type is skipped, not a reason to refuse the depth.
-  EXPECT_EQ(read_depth_exr(variant("provenance-type.exr", [](RawExr& r) {
-              r.strings["pg/provenance"] = R"({"tool": 5, "version": "1"})";
-            })).provenance.version,
+  EXPECT_EQ(read_depth_exr(
+                variant("provenance-type.exr",
+                        [](RawExr& r) { r.strings["pg/provenance"] = R"({"tool": 5, "version": "1"})"; }))
+                .provenance.version,
             "1");
   expect_rejected(variant("equirect.exr",
                           [](RawExr& r) {
@@ -293,6 +294,27 @@ TEST(DepthExr, RejectsHugeDataWindowsBeforeAllocating) {
   side.window = Imath::Box2i(Imath::V2i(-5, 0), Imath::V2i(69994, 0));
   side.write(dir / "side.exr");
   expect_rejected(dir / "side.exr", "70000 x 1");
+  EXPECT_FALSE(is_pg_depth_exr(dir / "side.exr"));  // the header check runs before anything is sized
+}
+
+// A header that OpenEXR's core library and Imf::InputFile read differently (found by fuzz_depth_exr:
+// InputFile saw a 33423056 x 29185 window and allocated 2 GB for one chunk of lines).
+TEST(DepthExr, WindowIsCheckedAsOpenExrItselfReadsIt) {
+  const fs::path file = fs::path(build_info::source_dir) / "testdata" / "fuzz-regressions" / "depth_exr" /
+                        "box2i-wrong-size-huge-window.exr";
+  expect_rejected(file, "33423056 x 29185 pixels exceeds the limit");
+  EXPECT_FALSE(is_pg_depth_exr(file));
+}
+
+TEST(DepthExr, PgDepthFilesAreToldFromPlainExrs) {
+  testing::TempDir dir;
+  write_depth_exr(dir / "depth.exr", test_map());
+  write_image(dir / "plain.exr", cv::Mat1f(4, 6, 1.f));
+  testing::write_text(dir / "text.exr", "not an EXR");
+  EXPECT_TRUE(is_pg_depth_exr(dir / "depth.exr"));
+  EXPECT_FALSE(is_pg_depth_exr(dir / "plain.exr"));
+  EXPECT_FALSE(is_pg_depth_exr(dir / "text.exr"));
+  EXPECT_FALSE(is_pg_depth_exr(dir / "absent.exr"));
 }
 
 TEST(DepthExr, RejectsTruncatedAndIncompleteFiles) {
