@@ -561,6 +561,25 @@ void read_pg_comments(const Contents& contents, const fs::path& path,
   }
 }
 
+void add_point_columns(WriteRequest& request, const std::vector<Eigen::Vector3f>& positions,
+                       const std::vector<Eigen::Vector3f>& normals,
+                       const std::vector<std::array<std::uint8_t, 3>>& colors) {
+  static_assert(sizeof(Eigen::Vector3f) == 12 && sizeof(std::array<std::uint8_t, 3>) == 3);
+  const auto add_three = [&](std::array<const char*, 3> names, Type type, const auto* data,
+                             std::size_t stride) {
+    for (int k = 0; k < 3; ++k)
+      request.columns.push_back({names[k], type, data ? data + k : nullptr, stride});
+  };
+  if (positions.empty()) {
+    add_three({"x", "y", "z"}, Type::float32, static_cast<const float*>(nullptr), 0);
+    return;
+  }
+  add_three({"x", "y", "z"}, Type::float32, positions.front().data(), sizeof(Eigen::Vector3f));
+  if (!normals.empty())
+    add_three({"nx", "ny", "nz"}, Type::float32, normals.front().data(), sizeof(Eigen::Vector3f));
+  if (!colors.empty()) add_three({"red", "green", "blue"}, Type::uint8, colors.front().data(), 3);
+}
+
 void write(const fs::path& path, const WriteRequest& request) {
   if (request.write_faces && request.vertex_count > std::size_t(std::numeric_limits<std::int32_t>::max()))
     throw OutputError(path, "too many vertices for PLY int face indices");

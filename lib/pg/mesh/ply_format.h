@@ -2,6 +2,7 @@
 // The PLY container shared by meshes and point clouds (formats/meshes.md, formats/point-clouds.md):
 // a bounded, validating reader of the vertex and face elements and a writer. Higher-level readers
 // map the columns onto Mesh or PointCloud.
+#include <Eigen/Core>
 #include <array>
 #include <cstdint>
 #include <filesystem>
@@ -71,6 +72,12 @@ struct WriteRequest {
   bool write_faces = false;
   std::span<const std::array<std::uint32_t, 3>> faces;
 };
+
+// Appends the standard point columns: x y z, then nx ny nz and red green blue unless those vectors are
+// empty. Without positions, only the three coordinate columns (a file of no vertices).
+void add_point_columns(WriteRequest& request, const std::vector<Eigen::Vector3f>& positions,
+                       const std::vector<Eigen::Vector3f>& normals,
+                       const std::vector<std::array<std::uint8_t, 3>>& colors);
 
 // Writes atomically; throws OutputError on failure or on property names PLY cannot hold.
 void write(const std::filesystem::path& path, const WriteRequest& request);

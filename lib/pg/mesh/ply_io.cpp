@@ -76,46 +76,20 @@ void write_mesh_ply(const fs::path& path, const Mesh& mesh, PlyEncoding encoding
   request.format_name = "pg-mesh";
   request.provenance = mesh.provenance;
   request.vertex_count = mesh.vertex_count();
-  const auto add = [&](const char* name, ply::Type type, const void* data, std::size_t stride) {
-    request.columns.push_back({name, type, data, stride});
-  };
-  constexpr std::size_t vec3 = sizeof(Eigen::Vector3f), vec2 = sizeof(Eigen::Vector2f), rgb = 3;
-  if (mesh.vertex_count() > 0) {
-    const float* p = mesh.positions.front().data();
-    add("x", ply::Type::float32, p, vec3);
-    add("y", ply::Type::float32, p + 1, vec3);
-    add("z", ply::Type::float32, p + 2, vec3);
-    if (!mesh.normals.empty()) {
-      const float* nrm = mesh.normals.front().data();
-      add("nx", ply::Type::float32, nrm, vec3);
-      add("ny", ply::Type::float32, nrm + 1, vec3);
-      add("nz", ply::Type::float32, nrm + 2, vec3);
-    }
-    if (!mesh.colors.empty()) {
-      const std::uint8_t* c = mesh.colors.front().data();
-      add("red", ply::Type::uint8, c, rgb);
-      add("green", ply::Type::uint8, c + 1, rgb);
-      add("blue", ply::Type::uint8, c + 2, rgb);
-    }
-    if (!mesh.uvs.empty()) {
-      const float* uv = mesh.uvs.front().data();
-      add("s", ply::Type::float32, uv, vec2);
-      add("t", ply::Type::float32, uv + 1, vec2);
-    }
-    for (const auto& [name, values] : mesh.vertex_properties) {
-      if (values.empty()) continue;
-      if (reserved_names.count(name))
-        throw OutputError(path,
-                          str("vertex property \"", name, "\" would be read back as a standard attribute"));
-      add(name.c_str(), ply::Type::float32, values.data(), sizeof(float));
-    }
-  } else {
-    add("x", ply::Type::float32, nullptr, 0);
-    add("y", ply::Type::float32, nullptr, 0);
-    add("z", ply::Type::float32, nullptr, 0);
+  ply::add_point_columns(request, mesh.positions, mesh.normals, mesh.colors);
+  if (!mesh.uvs.empty()) {
+    static_assert(sizeof(Eigen::Vector2f) == 8);
+    const float* uv = mesh.uvs.front().data();
+    request.columns.push_back({"s", ply::Type::float32, uv, sizeof(Eigen::Vector2f)});
+    request.columns.push_back({"t", ply::Type::float32, uv + 1, sizeof(Eigen::Vector2f)});
   }
-  static_assert(sizeof(Eigen::Vector3f) == 12 && sizeof(Eigen::Vector2f) == 8 &&
-                sizeof(std::array<std::uint8_t, 3>) == 3);
+  for (const auto& [name, values] : mesh.vertex_properties) {
+    if (values.empty()) continue;
+    if (reserved_names.count(name))
+      throw OutputError(path,
+                        str("vertex property \"", name, "\" would be read back as a standard attribute"));
+    request.columns.push_back({name, ply::Type::float32, values.data(), sizeof(float)});
+  }
   request.write_faces = true;
   request.faces = mesh.faces;
   ply::write(path, request);

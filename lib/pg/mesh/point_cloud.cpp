@@ -79,28 +79,11 @@ void write_point_cloud_ply(const fs::path& path, const PointCloud& cloud, PlyEnc
   request.format_name = "pg-point-cloud";
   request.provenance = cloud.provenance;
   request.vertex_count = cloud.size();
-  constexpr std::size_t vec3 = sizeof(Eigen::Vector3f);
-  const bool empty = cloud.size() == 0;
-  const float* p = empty ? nullptr : cloud.positions.front().data();
-  request.columns = {{"x", ply::Type::float32, p, vec3},
-                     {"y", ply::Type::float32, empty ? nullptr : p + 1, vec3},
-                     {"z", ply::Type::float32, empty ? nullptr : p + 2, vec3}};
-  if (!empty && !cloud.normals.empty()) {
-    const float* nrm = cloud.normals.front().data();
-    request.columns.push_back({"nx", ply::Type::float32, nrm, vec3});
-    request.columns.push_back({"ny", ply::Type::float32, nrm + 1, vec3});
-    request.columns.push_back({"nz", ply::Type::float32, nrm + 2, vec3});
-  }
-  if (!empty && !cloud.colors.empty()) {
-    const std::uint8_t* c = cloud.colors.front().data();
-    request.columns.push_back({"red", ply::Type::uint8, c, 3});
-    request.columns.push_back({"green", ply::Type::uint8, c + 1, 3});
-    request.columns.push_back({"blue", ply::Type::uint8, c + 2, 3});
-  }
-  if (!empty && !cloud.confidence.empty())
+  ply::add_point_columns(request, cloud.positions, cloud.normals, cloud.colors);
+  if (!cloud.confidence.empty())
     request.columns.push_back({"confidence", ply::Type::float32, cloud.confidence.data(), sizeof(float)});
   // uint32 counts below 2^31 (checked above) have the same bits as the int32 the file declares.
-  if (!empty && !cloud.track_length.empty())
+  if (!cloud.track_length.empty())
     request.columns.push_back(
         {"track_length", ply::Type::int32, cloud.track_length.data(), sizeof(std::uint32_t)});
   ply::write(path, request);
