@@ -114,7 +114,7 @@ TEST(Pinhole, UndistortInvertsDistort) {
   std::mt19937 rng(12);
   std::uniform_real_distribution<double> u(-0.85, 0.85);
   for (int i = 0; i < 20000; ++i) {
-    const Eigen::Vector2d x(u(rng), u(rng));
+    const Eigen::Vector2d x{u(rng), u(rng)};
     if (x.norm() > 0.85) continue;
     const Eigen::Vector2d distorted = distort_pinhole(c.distortion, x);
     EXPECT_LT((undistort_pinhole(c.distortion, distorted) - x).norm(), 1e-12) << x.transpose();
@@ -137,7 +137,7 @@ TEST(Pinhole, UnprojectInvertsProject) {
   std::mt19937 rng(13);
   std::uniform_real_distribution<double> u(0, c.width - 1), v(0, c.height - 1);
   for (int i = 0; i < 5000; ++i) {
-    const Eigen::Vector2d pixel(u(rng), v(rng));
+    const Eigen::Vector2d pixel{u(rng), v(rng)};
     const Eigen::Vector3d ray = c.unproject(pixel);
     EXPECT_NEAR(ray.norm(), 1.0, 1e-15);
     EXPECT_GT(ray.z(), 0);
@@ -179,7 +179,7 @@ TEST(Fisheye, UnprojectInvertsProject) {
   std::uniform_real_distribution<double> u(0, c.width - 1), v(0, c.height - 1);
   int tested = 0;
   for (int i = 0; i < 5000; ++i) {
-    const Eigen::Vector2d pixel(u(rng), v(rng));
+    const Eigen::Vector2d pixel{u(rng), v(rng)};
     const Eigen::Vector3d ray = c.unproject(pixel);
     EXPECT_NEAR(ray.norm(), 1.0, 1e-15);
     if (ray.z() <= 0.01) continue;  // beyond the 180-degree field in the image corners
@@ -215,7 +215,7 @@ TEST(Equirectangular, ClosedFormDirections) {
   std::mt19937 rng(16);
   std::normal_distribution<double> n(0, 1);
   for (int i = 0; i < 5000; ++i) {
-    const Eigen::Vector3d dir = Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized();
+    const Eigen::Vector3d dir = Eigen::Vector3d{n(rng), n(rng), n(rng)}.normalized();
     const double lon = std::atan2(dir.x(), dir.z()), lat = std::asin(-dir.y());
     Eigen::Vector2d pixel;
     ASSERT_TRUE(c.project(dir, pixel));
@@ -231,7 +231,7 @@ TEST(Equirectangular, UnprojectInvertsProjectIncludingSeamAndPoles) {
   std::mt19937 rng(17);
   std::uniform_real_distribution<double> u(-0.5, c.width - 0.5), v(-0.5, c.height - 0.5);
   std::vector<Eigen::Vector2d> pixels;
-  for (int i = 0; i < 5000; ++i) pixels.emplace_back(u(rng), v(rng));
+  for (int i = 0; i < 5000; ++i) pixels.push_back(Eigen::Vector2d{u(rng), v(rng)});
   for (double e : {1e-9, 1e-6, 1e-3, 0.25}) {
     pixels.emplace_back(-0.5 + e, 100.25);           // just right of the seam
     pixels.emplace_back(c.width - 0.5 - e, 100.25);  // just left of the seam

@@ -20,7 +20,8 @@ using nlohmann::json;
 // Doubles with random bits in every position of the mantissa, of mixed signs and magnitudes.
 double random_double(std::mt19937_64& rng, double scale) {
   std::uniform_real_distribution<double> u(-1, 1);
-  return scale * u(rng) * std::pow(10.0, double(std::uniform_int_distribution<int>(-3, 3)(rng)));
+  const double mantissa = u(rng);  // one draw per statement: argument order is unspecified
+  return scale * mantissa * std::pow(10.0, double(std::uniform_int_distribution<int>(-3, 3)(rng)));
 }
 
 CameraSet random_set(std::mt19937_64& rng) {
@@ -48,7 +49,7 @@ CameraSet random_set(std::mt19937_64& rng) {
       }
     }
     std::normal_distribution<double> n(0, 1);
-    c.cam_from_world.rotation = Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized();
+    c.cam_from_world.rotation = Eigen::Quaterniond{n(rng), n(rng), n(rng), n(rng)}.normalized();
     c.cam_from_world.translation = {random_double(rng, 10), random_double(rng, 10), random_double(rng, 10)};
     if (i % 2) c.quality = std::uniform_real_distribution<double>(0, 1)(rng);
     if (i == 4) {

@@ -15,7 +15,7 @@ std::vector<Eigen::Vector3f> sphere_points(int count) {
   std::normal_distribution<float> gauss;
   std::vector<Eigen::Vector3f> points;
   for (int i = 0; i < count; ++i)
-    points.push_back(0.5f * Eigen::Vector3f(gauss(random), gauss(random), gauss(random)).normalized());
+    points.push_back(0.5f * Eigen::Vector3f{gauss(random), gauss(random), gauss(random)}.normalized());
   return points;
 }
 

@@ -12,7 +12,7 @@ namespace {
 
 Eigen::Quaterniond random_rotation(std::mt19937& rng) {
   std::normal_distribution<double> n(0, 1);
-  return Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized();
+  return Eigen::Quaterniond{n(rng), n(rng), n(rng), n(rng)}.normalized();
 }
 
 Eigen::Vector3d random_vector(std::mt19937& rng, double scale) {
@@ -131,7 +131,7 @@ TEST(AlignSimilarity, NoisyPointsWithinTolerance) {
   std::vector<Eigen::Vector3d> src, dst;
   for (int i = 0; i < 2000; ++i) {
     src.push_back(random_vector(rng, 10));
-    dst.push_back(truth * src.back() + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+    dst.push_back(truth * src.back() + Eigen::Vector3d{noise(rng), noise(rng), noise(rng)});
   }
   const Sim3 estimate = align_similarity(src, dst);
   // Noise 1e-3 over 2000 points spread over 10 units: parameter errors of order 1e-3 / (10 sqrt(2000)).
@@ -202,7 +202,7 @@ TEST(Triangulate, RefinementLowersAngularErrorWithNoise) {
   std::vector<Eigen::Vector3d> rays;
   for (const Rigid3& pose : poses)
     rays.push_back(
-        ((pose * point).normalized() + Eigen::Vector3d(noise(rng), noise(rng), noise(rng))).normalized());
+        ((pose * point).normalized() + Eigen::Vector3d{noise(rng), noise(rng), noise(rng)}).normalized());
   auto total_error = [&](const Eigen::Vector3d& x) {
     double sum = 0;
     for (std::size_t i = 0; i < poses.size(); ++i)

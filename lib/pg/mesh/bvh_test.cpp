@@ -76,9 +76,9 @@ TEST(ClosestPointOnTriangle, MatchesReferenceInEveryRegion) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> coord(-1.0f, 1.0f);
   for (int i = 0; i < 20000; ++i) {
-    const Vec3 a(coord(rng), coord(rng), coord(rng)), b(coord(rng), coord(rng), coord(rng)),
-        c = i % 50 == 0 ? b : Vec3(coord(rng), coord(rng), coord(rng));
-    const Vec3 p = 2 * Vec3(coord(rng), coord(rng), coord(rng));
+    const Vec3 a{coord(rng), coord(rng), coord(rng)}, b{coord(rng), coord(rng), coord(rng)},
+        c = i % 50 == 0 ? b : Vec3{coord(rng), coord(rng), coord(rng)};
+    const Vec3 p = 2 * Vec3{coord(rng), coord(rng), coord(rng)};
     const Vec3 q = closest_point_on_triangle(p, a, b, c);
     ASSERT_NEAR((q - p).norm(), distance_reference(p, a, b, c), 2e-5) << i;
     // The point is on the triangle: its distance to the triangle is zero.
@@ -92,7 +92,7 @@ void check_closest_against_brute_force(const Mesh& mesh, std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> coord(-0.3f, 1.3f);
   for (int i = 0; i < 3000; ++i) {
-    const Vec3 query(coord(rng), coord(rng), coord(rng) * 0.5f);
+    const Vec3 query{coord(rng), coord(rng), coord(rng) * 0.5f};
     float brute = INFINITY;
     double reference = INFINITY;
     for (const auto& f : mesh.faces) {
@@ -134,10 +134,10 @@ void check_rays_against_brute_force(const Mesh& mesh, std::uint32_t seed) {
   int hits = 0, grazing_disagreements = 0;
   const int rays = 3000;
   for (int i = 0; i < rays; ++i) {
-    const Vec3 origin(coord(rng), coord(rng), coord(rng));
+    const Vec3 origin{coord(rng), coord(rng), coord(rng)};
     // Most rays aim into the mesh's box; some go anywhere; direction lengths vary.
     const Vec3 target =
-        i % 4 == 0 ? Vec3(coord(rng), coord(rng), coord(rng)) : Vec3(unit(rng), unit(rng), 0.5f * unit(rng));
+        i % 4 == 0 ? Vec3{coord(rng), coord(rng), coord(rng)} : Vec3{unit(rng), unit(rng), 0.5f * unit(rng)};
     const Vec3 direction = (target - origin) * (0.5f + unit(rng));
     const float t_max = i % 5 == 0 ? 0.8f : INFINITY;
     const ReferenceHit reference = intersect_reference(mesh, origin, direction, t_max);
@@ -224,7 +224,7 @@ TEST(TriangleBvh, ConcurrentQueriesMatchSequentialOnes) {
   std::mt19937 rng(10);
   std::uniform_real_distribution<float> coord(0.0f, 1.0f);
   std::vector<Vec3> queries(4000);
-  for (auto& q : queries) q = Vec3(coord(rng), coord(rng), coord(rng));
+  for (auto& q : queries) q = Vec3{coord(rng), coord(rng), coord(rng)};
   std::vector<TriangleBvh::ClosestHit> sequential;
   for (const auto& q : queries) sequential.push_back(bvh.closest_point(q));
   std::vector<std::vector<TriangleBvh::ClosestHit>> per_thread(4);

@@ -26,8 +26,8 @@ PointCloud random_cloud(std::size_t n) {
   std::uniform_real_distribution<float> any(-50.0f, 50.0f), unit(0.0f, 1.0f);
   PointCloud cloud;
   for (std::size_t i = 0; i < n; ++i) {
-    cloud.positions.emplace_back(any(rng), any(rng), any(rng));
-    cloud.normals.push_back(Eigen::Vector3f(any(rng), any(rng), any(rng)).normalized());
+    cloud.positions.push_back(Eigen::Vector3f{any(rng), any(rng), any(rng)});
+    cloud.normals.push_back(Eigen::Vector3f{any(rng), any(rng), any(rng)}.normalized());
     cloud.colors.push_back({std::uint8_t(rng()), std::uint8_t(rng()), std::uint8_t(rng())});
     cloud.confidence.push_back(unit(rng));
     cloud.track_length.push_back(std::uint32_t(rng() % 5000));

@@ -30,10 +30,10 @@ inline Mesh random_soup(int triangles, float size, std::uint32_t seed) {
   std::uniform_real_distribution<float> unit(0.0f, 1.0f), offset(-size, size);
   Mesh mesh;
   for (int t = 0; t < triangles; ++t) {
-    const Eigen::Vector3f centre(unit(rng), unit(rng), unit(rng));
+    const Eigen::Vector3f centre{unit(rng), unit(rng), unit(rng)};
     const auto base = std::uint32_t(mesh.positions.size());
     for (int k = 0; k < 3; ++k)
-      mesh.positions.push_back(centre + Eigen::Vector3f(offset(rng), offset(rng), offset(rng)));
+      mesh.positions.push_back(centre + Eigen::Vector3f{offset(rng), offset(rng), offset(rng)});
     if (t % 97 == 0) mesh.positions[base + 2] = mesh.positions[base + 1];  // zero-area triangle
     mesh.faces.push_back({base, base + 1, base + 2});
   }
@@ -46,12 +46,12 @@ inline Mesh attributed_mesh() {
   const std::size_t n = mesh.vertex_count();
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> any(-1000.0f, 1000.0f), unit(0.0f, 1.0f);
-  for (auto& p : mesh.positions) p += Eigen::Vector3f(any(rng), any(rng), any(rng)) * 1e-3f;
+  for (auto& p : mesh.positions) p += Eigen::Vector3f{any(rng), any(rng), any(rng)} * 1e-3f;
   mesh.positions[0] = {1e-40f, -0.0f, 3.4e38f};  // a denormal, negative zero and a huge value
   for (std::size_t i = 0; i < n; ++i) {
-    mesh.normals.push_back(Eigen::Vector3f(any(rng), any(rng), any(rng)).normalized());
+    mesh.normals.push_back(Eigen::Vector3f{any(rng), any(rng), any(rng)}.normalized());
     mesh.colors.push_back({std::uint8_t(i * 37), std::uint8_t(255 - i), std::uint8_t(i * 101)});
-    mesh.uvs.emplace_back(unit(rng), unit(rng));
+    mesh.uvs.push_back(Eigen::Vector2f{unit(rng), unit(rng)});
     mesh.vertex_properties["working_set"].push_back(i % 3 == 0 ? 1.0f : 0.0f);
     mesh.vertex_properties["confidence"].push_back(unit(rng) / 3.0f);
   }

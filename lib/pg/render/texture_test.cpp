@@ -28,7 +28,7 @@ TEST(Texture, LinearTextureSamplesExactlyAtEveryLevelOfDetail) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> coord(0.2f, 0.8f), lod(0.0f, 3.0f);
   for (int i = 0; i < 1000; ++i) {
-    const Eigen::Vector2f uv(coord(rng), coord(rng));
+    const Eigen::Vector2f uv{coord(rng), coord(rng)};
     const Eigen::Vector3f c = texture.sample(uv, lod(rng));
     EXPECT_NEAR(c[0], uv.x(), 1e-5);
     EXPECT_NEAR(c[1], uv.y(), 1e-5);

@@ -62,7 +62,7 @@ TEST(ReprojectionCost, AnalyticJacobiansMatchAutomaticDifferentiation) {
     const double intrinsics[5] = {800 + 200 * unit(rng), 320 + 10 * unit(rng), 240 + 10 * unit(rng),
                                   0.1 * unit(rng), 0.05 * unit(rng)};
     const double point[3] = {2 * unit(rng), 2 * unit(rng), 2 * unit(rng)};
-    const Eigen::Vector2d observed(300 + 50 * unit(rng), 250 + 50 * unit(rng));
+    const Eigen::Vector2d observed{300 + 50 * unit(rng), 250 + 50 * unit(rng)};
     const double aspect = 1 + 0.01 * unit(rng);
     const ReprojectionCost analytic(observed, aspect);
     const ceres::AutoDiffCostFunction<AutodiffReprojection, 2, 6, 5, 3> reference(

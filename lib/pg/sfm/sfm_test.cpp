@@ -206,7 +206,7 @@ TEST(BundleAdjustment, RecoversPerturbedPosesAndPoints) {
   std::normal_distribution<double> n(0, 1);
   for (std::size_t f = 2; f < poses.size(); ++f)
     for (int k = 0; k < 6; ++k) poses[f][k] += (k < 3 ? 0.01 : 0.05) * n(rng);
-  for (Eigen::Vector3d& X : points) X += 0.02 * Eigen::Vector3d(n(rng), n(rng), n(rng));
+  for (Eigen::Vector3d& X : points) X += 0.02 * Eigen::Vector3d{n(rng), n(rng), n(rng)};
   BundleProblem problem;
   problem.poses = &poses;
   problem.intrinsics = &intrinsics;
