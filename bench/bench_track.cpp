@@ -23,6 +23,7 @@
 #include "pg/eval/camera_eval.h"
 #include "pg/eval/orientation_error.h"
 #include "pg/eval/truth_import.h"
+#include "pg/image/huge_page_mats.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/sfm/sfm_outputs.h"
 #include "pg/track/correspondences.h"
@@ -220,6 +221,7 @@ void print_row(const std::string& set, const std::string& mode, const std::strin
 }  // namespace
 
 int main(int argc, char** argv) {
+  pg::use_huge_pages_for_large_mats();  // as every pg-* tool does
   const char* env = std::getenv("PG_DATA_DIR");
   const fs::path data = argc > 1 ? fs::path(argv[1]) : fs::path(env ? env : pg::build_info::default_data_dir);
   std::set<std::string> wanted;

@@ -17,6 +17,7 @@
 #include "pg/core/provenance.h"
 #include "pg/core/run_report.h"
 #include "pg/gpu/device.h"
+#include "pg/image/huge_page_mats.h"
 
 namespace fs = std::filesystem;
 
@@ -209,6 +210,7 @@ int Frame::run(int argc, char** argv, const std::function<void()>& body) {
   try {
     log::set_level(log::parse_level(log_level_));
     set_thread_count(threads_);
+    use_huge_pages_for_large_mats();
     if (!max_memory_text_.empty()) {
       max_memory_ = parse_memory_size(max_memory_text_);
       budget_bytes = max_memory_;
