@@ -12,6 +12,7 @@ namespace {
 constexpr std::size_t kHugePage = std::size_t{2} << 20;
 constexpr std::size_t kLargeFrom = std::size_t{4} << 20;
 
+// The next multiple of the huge-page size (a length or an address).
 std::size_t round_up(std::size_t bytes) {
   return (bytes + kHugePage - 1) / kHugePage * kHugePage;
 }
@@ -22,7 +23,7 @@ void* map_aligned(std::size_t bytes) {
   void* raw = mmap(nullptr, length + kHugePage, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
   if (raw == MAP_FAILED) return nullptr;
   const auto base = reinterpret_cast<std::uintptr_t>(raw);
-  const std::uintptr_t aligned = (base + kHugePage - 1) / kHugePage * kHugePage;
+  const std::uintptr_t aligned = round_up(base);
   if (aligned > base) munmap(raw, aligned - base);
   if (const std::size_t tail = base + kHugePage - aligned; tail > 0)
     munmap(reinterpret_cast<void*>(aligned + length), tail);
