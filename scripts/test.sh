@@ -2,6 +2,7 @@
 # Sets up, builds and runs every test.
 # Usage: scripts/test.sh              all tests (Release)
 #        scripts/test.sh --sanitize   the suite under AddressSanitizer + UBSan
+#        scripts/test.sh --sanitize -E REGEX   ... without the tests REGEX names (any ctest options)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install-deps.sh
@@ -15,7 +16,8 @@ if [ "${1:-}" = "--sanitize" ]; then
   # and fails the pass only if it fails again: LeakSanitizer's tracer has crashed (signal 11) at the
   # exit of a test with PoCL's threads alive, once in some 500 test runs.
   ./scripts/build.sh --sanitize
-  exec ctest --test-dir build-sanitize --output-on-failure -j "$jobs" --timeout 1200 --repeat until-pass:2
+  shift
+  exec ctest --test-dir build-sanitize --output-on-failure -j "$jobs" --timeout 1200 --repeat until-pass:2 "$@"
 fi
 ./scripts/build.sh
 ctest --test-dir build --output-on-failure -j "$jobs" --timeout 900
