@@ -234,10 +234,14 @@ int main(int argc, char** argv) {
 
   std::vector<Dataset> sets;
   const fs::path multiview = data / "multiview";
-  for (const auto& [name, folder, par] : {std::tuple{"temple-sparse", "templeSparseRing", "templeSR_par.txt"},
-                                          std::tuple{"temple-ring", "templeRing", "templeR_par.txt"}})
+  // templeRing's images in ../shared/data are 480x640, its parameters' frames 640x480: the images are
+  // stored turned a quarter counter-clockwise (templeR0001 is templeSR0001 turned so, to 2 grey levels).
+  for (const auto& [name, folder, par, turns] :
+       {std::tuple{"temple-sparse", "templeSparseRing", "templeSR_par.txt", 0},
+        std::tuple{"temple-ring", "templeRing", "templeR_par.txt", 1}})
     if (want(name) && fs::exists(multiview / folder / par))
-      sets.push_back(linked(name, multiview / folder, pg::import_middlebury_par(multiview / folder / par),
+      sets.push_back(linked(name, multiview / folder,
+                            pg::import_middlebury_par(multiview / folder / par, turns),
                             work / "images" / name));
   for (const auto& [name, folder] : {std::pair{"herz", "Herz-Jesus-P8"}, std::pair{"entry", "entry-P10"}}) {
     const fs::path root = multiview / "strecha" / folder;

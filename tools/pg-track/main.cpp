@@ -24,7 +24,7 @@ struct Options {
   std::vector<std::string> images;
   std::string out, cameras, masks, range, intrinsics = "auto", matcher = "sift";
   double focal = 0;
-  bool refine_distortion = false, no_loops = false;
+  bool refine_distortion = false, no_loops = false, no_refine_positions = false;
   std::string principal_point = "auto";
   std::vector<std::string> scale;        // id_a id_b distance
   std::vector<std::string> scale_board;  // COLSxROWS square
@@ -187,6 +187,9 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(1, 1000));
   app.add_flag("--no-loops", o.no_loops, "do not match non-neighbouring images (no loop closure)");
+  app.add_flag("--no-refine-positions", o.no_refine_positions,
+               "keep the detector's feature positions (default: each track's observations are aligned "
+               "to sub-pixel accuracy on one of them)");
   app.add_option("--max-error", so.max_reprojection_px, "reprojection error bound for inliers, pixels")
       ->capture_default_str();
   app.add_option("--scale", o.scale, "ID_A ID_B METRES: scale so that these two cameras are this far apart")
@@ -231,6 +234,7 @@ int main(int argc, char** argv) {
 
     co.method = pg::correspondence_method_from_string(o.matcher);
     co.loop_matching = !o.no_loops;
+    co.refine_positions = !o.no_refine_positions;
     pg::CorrespondenceResult correspondences;
     {
       pg::ScopedTimer timer("correspondences");

@@ -228,4 +228,31 @@ Camera resized_camera(const Camera& camera, double factor) {
   return c;
 }
 
+Camera turned_camera(const Camera& camera, int quarter_turns) {
+  if (camera.model == CameraModel::equirectangular)
+    throw UsageError("an equirectangular camera cannot be turned by quarter turns");
+  Camera c = camera;
+  for (int turn = 0; turn < ((quarter_turns % 4) + 4) % 4; ++turn) {
+    // Pixel (x, y) of a W-wide image goes to (y, W - 1 - x); camera axes x' = y, y' = -x.
+    const Camera before = c;
+    c.width = before.height;
+    c.height = before.width;
+    c.intrinsics = {before.intrinsics.fy, before.intrinsics.fx, before.intrinsics.cy,
+                    before.width - 1 - before.intrinsics.cx};
+    if (c.model == CameraModel::pinhole) {
+      c.distortion.p1 = -before.distortion.p2;  // radial terms are symmetric; tangential ones turn
+      c.distortion.p2 = before.distortion.p1;
+    }
+    const Eigen::Quaterniond axes(Eigen::AngleAxisd(-EIGEN_PI / 2, Eigen::Vector3d::UnitZ()));
+    c.cam_from_world = Rigid3{axes, Eigen::Vector3d::Zero()} * before.cam_from_world;
+    if (before.stddev) {
+      auto& s = *c.stddev;
+      std::swap(s[0], s[1]);
+      std::swap(s[2], s[3]);
+      std::swap(s[6], s[7]);
+    }
+  }
+  return c;
+}
+
 }  // namespace pg

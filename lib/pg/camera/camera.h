@@ -73,4 +73,10 @@ Eigen::Vector3d equirect_direction_from_pixel(int width, int height, const Eigen
 // (c' = (c + 0.5) s - 0.5); an equirectangular camera only changes size.
 Camera resized_camera(const Camera& camera, double factor);
 
+// The camera of its images turned `quarter_turns` times 90 degrees counter-clockwise (negative:
+// clockwise), as an image stored rotated from the frame its calibration describes: pixel (x, y) of a
+// W-wide image lands on (y, W - 1 - x) per turn, and the pose turns with the image, so every world
+// point projects to the turned pixel. Throws UsageError for an equirectangular camera.
+Camera turned_camera(const Camera& camera, int quarter_turns);
+
 }  // namespace pg

@@ -326,5 +326,41 @@ TEST(ResizedCamera, OddSizesEquirectangularAndTinyFactors) {
   EXPECT_EQ(resized_camera(c, 1e-6).width, 1);
 }
 
+// A camera of an image stored turned: every world point lands on the turned pixel of where the
+// original camera put it, with tangential distortion and an off-centre principal point.
+TEST(TurnedCamera, ProjectsOntoTheTurnedPixels) {
+  Camera c;
+  c.width = 640;
+  c.height = 480;
+  c.intrinsics = {1520.4, 1525.9, 302.32, 246.87};
+  c.distortion = {.k1 = -0.12, .k2 = 0.05, .p1 = 0.002, .p2 = -0.003};
+  c.cam_from_world.rotation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()));
+  c.cam_from_world.translation = {0.1, -0.2, 0.6};
+  const Eigen::Vector3d world_point = c.cam_from_world.inverse() * Eigen::Vector3d(0.03, -0.02, 0.5);
+  Eigen::Vector2d original;
+  ASSERT_TRUE(c.project_world(world_point, original));
+  for (int turns : {-1, 0, 1, 2, 3, 5}) {
+    SCOPED_TRACE(turns);
+    Eigen::Vector2d expected = original;
+    int width = c.width;
+    for (int t = 0; t < ((turns % 4) + 4) % 4; ++t) {
+      expected = {expected.y(), width - 1 - expected.x()};
+      width = width == c.width ? c.height : c.width;
+    }
+    const Camera turned = turned_camera(c, turns);
+    EXPECT_EQ(turned.width, turns % 2 == 0 ? 640 : 480);
+    Eigen::Vector2d pixel;
+    ASSERT_TRUE(turned.project_world(world_point, pixel));
+    EXPECT_NEAR((pixel - expected).norm(), 0, 1e-9);
+  }
+  // Turned one way and back: the same camera.
+  const Camera back = turned_camera(turned_camera(c, 1), -1);
+  EXPECT_NEAR(back.intrinsics.cx, c.intrinsics.cx, 1e-12);
+  EXPECT_NEAR(back.cam_from_world.rotation.angularDistance(c.cam_from_world.rotation), 0, 1e-12);
+  c.model = CameraModel::equirectangular;
+  EXPECT_THROW(turned_camera(c, 1), UsageError);
+}
+
 }  // namespace
 }  // namespace pg

@@ -37,7 +37,7 @@ std::vector<double> read_numbers(std::istream& in, std::size_t count, const std:
 
 }  // namespace
 
-CameraSet import_middlebury_par(const std::filesystem::path& par_file) {
+CameraSet import_middlebury_par(const std::filesystem::path& par_file, int image_quarter_turns) {
   std::ifstream in(par_file);
   if (!in) throw InputError(par_file, "cannot open");
   long long count = 0;
@@ -63,7 +63,8 @@ CameraSet import_middlebury_par(const std::filesystem::path& par_file) {
     const std::filesystem::path image = par_file.parent_path() / name;
     if (std::filesystem::exists(image))
       if (const auto size = peek_image_size(image)) c.width = size->width, c.height = size->height;
-    set.cameras.push_back(c);
+    if (image_quarter_turns % 2 != 0) std::swap(c.width, c.height);  // the size the file's frame has
+    set.cameras.push_back(turned_camera(c, image_quarter_turns));
   }
   return set;
 }

@@ -25,6 +25,27 @@ TEST(TruthImport, MiddleburyParProjectsLikeTheFile) {
     EXPECT_GT((cam.cam_from_world * Eigen::Vector3d(0.02, 0.08, 0)).z(), 0.3);
 }
 
+// templeRing's images here are 480x640, turned a quarter counter-clockwise from the 640x480 frames of
+// its parameters (templeR0001 is templeSR0001 turned so, and the two share a rotation in the files).
+TEST(TruthImport, MiddleburyParOfTurnedImages) {
+  PG_REQUIRE_REAL_DATA(folder, "multiview/templeRing");
+  const CameraSet set = import_middlebury_par(folder / "templeR_par.txt", 1);
+  ASSERT_EQ(set.cameras.size(), 47u);
+  const Camera& c = set.cameras[0];
+  EXPECT_EQ(c.width, 480);
+  EXPECT_EQ(c.height, 640);
+  EXPECT_DOUBLE_EQ(c.intrinsics.fx, 1525.9);
+  EXPECT_DOUBLE_EQ(c.intrinsics.cx, 246.87);
+  EXPECT_DOUBLE_EQ(c.intrinsics.cy, 639 - 302.32);
+  // The temple's centre (README bounding box) is imaged inside every turned image.
+  const Eigen::Vector3d temple(0.0278, 0.0418, -0.0547);
+  for (const Camera& cam : set.cameras) {
+    Eigen::Vector2d pixel;
+    ASSERT_TRUE(cam.project_world(temple, pixel));
+    EXPECT_TRUE(cam.in_image(pixel, 60)) << cam.id << " " << pixel.transpose();
+  }
+}
+
 TEST(TruthImport, StrechaCamerasKeepTheCentre) {
   PG_REQUIRE_REAL_DATA(folder, "multiview/strecha/Herz-Jesus-P8/gt_dense_cameras");
   const CameraSet set = import_strecha_cameras(folder, "images");

@@ -10,6 +10,7 @@
 
 #include "pg/eval/camera_eval.h"
 #include "pg/eval/orientation_error.h"
+#include "pg/eval/track_eval.h"
 #include "pg/eval/truth_import.h"
 #include "pg/sfm/reconstruction.h"
 #include "pg/testing/testing.h"
@@ -129,6 +130,27 @@ TEST(SfmReal, TempleSparseRingKnownIntrinsics) {
   EXPECT_LT(m.median_rotation_deg, 0.397);     // COLMAP measured
 }
 
+// Sub-pixel position refinement (refine_track_positions) against the true cameras: every track is
+// triangulated with them, and its observations' distance to that point's projections measures how
+// well they mark one surface point. Measured: median 0.172 px as detected, 0.143 px refined.
+TEST(SfmReal, TempleSparseRingRefinedTracksAgreeBetterWithTheTrueCameras) {
+  PG_REQUIRE_REAL_DATA(folder, "multiview/templeSparseRing");
+  const CameraSet truth = import_middlebury_par(folder / "templeSR_par.txt");
+  std::vector<SequenceFrame> frames;
+  for (const Camera& c : truth.cameras) frames.push_back({c.id, folder / c.image, {}});
+  CorrespondenceOptions detected;
+  detected.refine_positions = false;
+  const TrackAgreement before =
+      track_agreement(build_correspondences(frames, detected).tracks, truth.cameras);
+  const TrackAgreement after = track_agreement(shared_tracks("templeSparseRing", frames, 1.0), truth.cameras);
+  std::cout << "[ measured ] templeSparseRing observations against the true cameras: median "
+            << before.observation_error_px.median << " px detected, " << after.observation_error_px.median
+            << " px refined\n";
+  EXPECT_LT(after.observation_error_px.median, 0.9 * before.observation_error_px.median);
+  EXPECT_LT(after.observation_error_px.p90, before.observation_error_px.p90);
+  EXPECT_GT(after.tracks_used, before.tracks_used * 9 / 10);
+}
+
 TEST(SfmReal, HerzJesusP8HalfResolutionSelfCalibrated) {
   PG_REQUIRE_REAL_DATA(folder, "multiview/strecha/Herz-Jesus-P8");
   const CameraSet truth = import_strecha_cameras(folder / "gt_dense_cameras", "images");
@@ -159,14 +181,26 @@ TEST(SfmReal, HerzJesusP8HalfResolutionKnownIntrinsics) {
 // the default focal guess and the next one is taken. About 35 s of CPU.
 TEST(SfmReal, TempleRingSelfCalibrated) {
   PG_REQUIRE_REAL_DATA(folder, "multiview/templeRing");
-  const CameraSet truth = import_middlebury_par(folder / "templeR_par.txt");
+  // The images are stored turned a quarter counter-clockwise from the parameters' 640x480 frames.
+  const CameraSet truth = import_middlebury_par(folder / "templeR_par.txt", 1);
   const Measured m = track_and_evaluate("templeRing", folder, truth, false, 1.0);
   EXPECT_EQ(m.registered, 47u);                // COLMAP measured: 47/47
   EXPECT_LT(m.median_centre_percent, 0.0982);  // COLMAP measured
-  // No rotation check: the ground truth's camera frames are turned 180 degrees about the optical axis
-  // from these images' (relative rotations agree in angle, not in axis; centres are unaffected), so
-  // both tools show about 90 degrees of rotation error.
-  EXPECT_LT(m.focal_error_percent, 2.14);  // COLMAP measured
+  EXPECT_LT(m.median_rotation_deg, 0.957);     // COLMAP measured
+  EXPECT_LT(m.focal_error_percent, 2.14);      // COLMAP measured
+}
+
+// No orientation-aligned check on templeRing: under its true cameras, frames 5-14 and 31-46 put our
+// tracks' triangulated points tens of pixels from the observations (the other frames: 0.1 px), so
+// its true rotations are not consistent enough for that measure; centres are, and rotations after
+// the centres' similarity are.
+TEST(SfmReal, TempleRingKnownIntrinsics) {
+  PG_REQUIRE_REAL_DATA(folder, "multiview/templeRing");
+  const CameraSet truth = import_middlebury_par(folder / "templeR_par.txt", 1);
+  const Measured m = track_and_evaluate("templeRing", folder, truth, true, 1.0);
+  EXPECT_EQ(m.registered, 47u);                // COLMAP measured: 47/47
+  EXPECT_LT(m.median_centre_percent, 0.1020);  // COLMAP measured
+  EXPECT_LT(m.median_rotation_deg, 0.2837);    // COLMAP measured
 }
 
 // pg measured 0.0200% centre error and 0.023 deg orientation-aligned, 29 s of CPU.

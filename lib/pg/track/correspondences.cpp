@@ -160,11 +160,11 @@ std::vector<std::pair<int, int>> loop_pairs(const std::vector<FrameFeatures>& fe
 
 }  // namespace
 
-std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Point2f>>& frame_points,
-                                           const std::vector<PointLink>& links) {
-  std::vector<int> offset(frame_points.size() + 1, 0);
-  for (std::size_t f = 0; f < frame_points.size(); ++f)
-    offset[f + 1] = offset[f] + static_cast<int>(frame_points[f].size());
+std::vector<NodeTrack> link_components(const std::vector<std::size_t>& frame_sizes,
+                                       const std::vector<PointLink>& links) {
+  std::vector<int> offset(frame_sizes.size() + 1, 0);
+  for (std::size_t f = 0; f < frame_sizes.size(); ++f)
+    offset[f + 1] = offset[f] + static_cast<int>(frame_sizes[f]);
   std::vector<int> parent(offset.back());
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](int x) {
@@ -180,9 +180,9 @@ std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Poi
   }
   // Group nodes by root, in frame order (nodes are numbered frame by frame).
   std::vector<int> track_of_root(parent.size(), -1);
-  std::vector<std::vector<std::pair<int, int>>> members;  // (frame, index)
-  for (std::size_t f = 0; f < frame_points.size(); ++f)
-    for (int i = 0; i < static_cast<int>(frame_points[f].size()); ++i) {
+  std::vector<NodeTrack> members;
+  for (std::size_t f = 0; f < frame_sizes.size(); ++f)
+    for (int i = 0; i < static_cast<int>(frame_sizes[f]); ++i) {
       const int node = offset[f] + i;
       if (!linked[node]) continue;
       const int root = find(node);
@@ -192,17 +192,28 @@ std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Poi
       }
       members[track_of_root[root]].push_back({static_cast<int>(f), i});
     }
-  std::vector<Track> tracks;
-  for (const auto& m : members) {
-    Track t;
+  std::vector<NodeTrack> tracks;
+  for (const NodeTrack& m : members) {
+    NodeTrack t;
     for (std::size_t k = 0; k < m.size(); ++k) {
       const bool twice =
           (k > 0 && m[k - 1].first == m[k].first) || (k + 1 < m.size() && m[k + 1].first == m[k].first);
-      if (twice) continue;
-      const cv::Point2f& p = frame_points[m[k].first][m[k].second];
-      t.observations.push_back({m[k].first, p.x, p.y});
+      if (!twice) t.push_back(m[k]);
     }
-    if (t.observations.size() >= 2) tracks.push_back(std::move(t));
+    if (t.size() >= 2) tracks.push_back(std::move(t));
+  }
+  return tracks;
+}
+
+std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Point2f>>& frame_points,
+                                           const std::vector<PointLink>& links) {
+  std::vector<std::size_t> sizes;
+  for (const auto& p : frame_points) sizes.push_back(p.size());
+  std::vector<Track> tracks;
+  for (const NodeTrack& nodes : link_components(sizes, links)) {
+    Track& t = tracks.emplace_back();
+    for (const auto& [frame, index] : nodes)
+      t.observations.push_back({frame, frame_points[frame][index].x, frame_points[frame][index].y});
   }
   return tracks;
 }
@@ -284,6 +295,7 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
 
   // Per-frame point lists (working pixels): KLT points first, then SIFT features.
   std::vector<std::vector<cv::Point2f>> points(n);
+  std::vector<std::vector<PointShape>> shapes(n);  // parallel to points; KLT points have none
   std::vector<PointLink> links;
   std::vector<int> continued(n, 0);
   const bool klt = options.method != CorrespondenceMethod::sift;
@@ -299,6 +311,7 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
       for (const KltPoint& p : tracked[f]) {
         const int index = static_cast<int>(points[f].size());
         points[f].push_back(p.position);
+        shapes[f].emplace_back();
         if (p.track >= static_cast<int>(last_seen.size())) last_seen.resize(p.track + 1, {-1, -1});
         const auto [pf, pi] = last_seen[p.track];
         if (pf >= 0) links.push_back({pf, pi, f, index});
@@ -329,6 +342,7 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
     for (int f = 0; f < n; ++f) {
       offset[f] = static_cast<int>(points[f].size());
       points[f].insert(points[f].end(), features[f].points.begin(), features[f].points.end());
+      shapes[f].insert(shapes[f].end(), features[f].shapes.begin(), features[f].shapes.end());
       log::debug("sift: ", features[f].points.size(), " features in ", frames[f].id);
     }
     timer.emplace("sift matching");
@@ -343,6 +357,18 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
       if (klt) probe.sequential_window = 1;
       matcher.match_all(loop_pairs(features, probe), true);
     }
+  }
+
+  if (options.refine_positions) {
+    std::vector<std::size_t> sizes;
+    for (const auto& p : points) sizes.push_back(p.size());
+    std::vector<cv::Mat> grays;
+    for (const WorkingFrame& w : work) grays.push_back(w.gray8);
+    const ScopedTimer timer("position refinement");
+    const PositionRefinementStats stats =
+        refine_track_positions(grays, points, shapes, link_components(sizes, links), options.refinement);
+    log::debug("position refinement: ", stats.refined, " observations moved (mean ", stats.mean_shift_px,
+               " px), ", stats.refused, " left");
   }
 
   // To full-resolution pixels, then tracks.

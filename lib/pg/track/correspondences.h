@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "pg/track/klt.h"
+#include "pg/track/position_refinement.h"
 #include "pg/track/tracks.h"
 
 namespace pg {
@@ -36,6 +37,9 @@ struct CorrespondenceOptions {
   // Three-view consistency of merged tracks (enforce_track_consistency), at this many times verify_px.
   bool track_consistency = true;
   double consistency_factor = 2.0;
+  // Sub-pixel alignment of each track's observations onto one of them (refine_track_positions).
+  bool refine_positions = true;
+  PositionRefinementOptions refinement;
   KltOptions klt;
   // KLT/Shi-Tomasi: consecutive frames joined by fewer tracks are matched by SIFT as well.
   int klt_min_continued = 150;
@@ -76,6 +80,10 @@ struct PointLink {
 };
 std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Point2f>>& frame_points,
                                            const std::vector<PointLink>& links);
+
+// The same components as (frame, index) nodes, from each frame's point count.
+std::vector<NodeTrack> link_components(const std::vector<std::size_t>& frame_sizes,
+                                       const std::vector<PointLink>& links);
 
 // Three-view consistency. Merging pairwise links can chain links that are each right into a track
 // that is wrong (a-b and b-c verified, but a's and c's observations are of different points). Every

@@ -44,6 +44,7 @@ FrameFeatures detect_sift(const cv::Mat& gray8, const cv::Mat& mask, int max_fea
     // OpenCV's SIFT doubles the image first (INTER_LINEAR, pixel centres at i / 2 - 0.25) but halves
     // keypoint coordinates without the offset: every keypoint sits 0.25 px right of and below its place.
     out.points.push_back(keypoints[order[k]].pt - cv::Point2f(0.25f, 0.25f));
+    out.shapes.push_back({keypoints[order[k]].size, keypoints[order[k]].angle});
     out.responses.push_back(keypoints[order[k]].response);
     descriptors.row(order[k]).copyTo(out.descriptors.row(static_cast<int>(k)));
   }
@@ -56,6 +57,7 @@ FrameFeatures strongest_features(const FrameFeatures& features, int count) {
   const int n = std::min<int>(count, static_cast<int>(features.points.size()));
   FrameFeatures out;
   out.points.assign(features.points.begin(), features.points.begin() + n);
+  out.shapes.assign(features.shapes.begin(), features.shapes.begin() + n);
   out.responses.assign(features.responses.begin(), features.responses.begin() + n);
   out.descriptors = features.descriptors.rowRange(0, n).clone();
   return out;

@@ -6,8 +6,16 @@
 
 namespace pg {
 
+// A point's local image frame as its detector saw it: scale (keypoint diameter, pixels) and
+// orientation (degrees, OpenCV's keypoint convention). Size 0: unknown.
+struct PointShape {
+  float size = 0;
+  float angle_deg = 0;
+};
+
 struct FrameFeatures {
   std::vector<cv::Point2f> points;  // working-image pixels, pixel (0, 0) the centre of the top-left pixel
+  std::vector<PointShape> shapes;   // parallel to points
   std::vector<float> responses;     // detector strength, for picking the strongest subset
   cv::Mat descriptors;              // CV_32F, one RootSIFT row per point
 };
