@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -234,11 +235,12 @@ int main(int argc, char** argv) {
 
   std::vector<Dataset> sets;
   const fs::path multiview = data / "multiview";
-  // templeRing's images in ../shared/data are 480x640, its parameters' frames 640x480: the images are
-  // stored turned a quarter counter-clockwise (templeR0001 is templeSR0001 turned so, to 2 grey levels).
+  // templeRing's images in ../shared/data are stored turned from its parameters' frames.
+  const std::function<int(const std::string&)> unturned = nullptr,
+                                               temple_ring = pg::temple_ring_quarter_turns;
   for (const auto& [name, folder, par, turns] :
-       {std::tuple{"temple-sparse", "templeSparseRing", "templeSR_par.txt", 0},
-        std::tuple{"temple-ring", "templeRing", "templeR_par.txt", 1}})
+       {std::tuple{"temple-sparse", "templeSparseRing", "templeSR_par.txt", unturned},
+        std::tuple{"temple-ring", "templeRing", "templeR_par.txt", temple_ring}})
     if (want(name) && fs::exists(multiview / folder / par))
       sets.push_back(linked(name, multiview / folder,
                             pg::import_middlebury_par(multiview / folder / par, turns),

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 
@@ -37,7 +38,8 @@ std::vector<double> read_numbers(std::istream& in, std::size_t count, const std:
 
 }  // namespace
 
-CameraSet import_middlebury_par(const std::filesystem::path& par_file, int image_quarter_turns) {
+CameraSet import_middlebury_par(const std::filesystem::path& par_file,
+                                const std::function<int(const std::string& name)>& image_quarter_turns) {
   std::ifstream in(par_file);
   if (!in) throw InputError(par_file, "cannot open");
   long long count = 0;
@@ -63,10 +65,17 @@ CameraSet import_middlebury_par(const std::filesystem::path& par_file, int image
     const std::filesystem::path image = par_file.parent_path() / name;
     if (std::filesystem::exists(image))
       if (const auto size = peek_image_size(image)) c.width = size->width, c.height = size->height;
-    if (image_quarter_turns % 2 != 0) std::swap(c.width, c.height);  // the size the file's frame has
-    set.cameras.push_back(turned_camera(c, image_quarter_turns));
+    const int turns = image_quarter_turns ? image_quarter_turns(name) : 0;
+    if (turns % 2 != 0) std::swap(c.width, c.height);  // the size the file's frame has
+    set.cameras.push_back(turned_camera(c, turns));
   }
   return set;
+}
+
+int temple_ring_quarter_turns(const std::string& image_name) {
+  int number = 0;
+  if (std::sscanf(image_name.c_str(), "templeR%4d.png", &number) != 1 || number < 1 || number > 47) return 0;
+  return number <= 31 ? 1 : -1;
 }
 
 CameraSet import_strecha_cameras(const std::filesystem::path& folder,
