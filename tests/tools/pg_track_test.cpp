@@ -96,6 +96,9 @@ TEST_F(PgTrack, OrbitWithExactIntrinsicsMeetsTheAccuracyTargets) {
   const nlohmann::json report = nlohmann::json::parse(pg::testing::read_text(out / "report.json"));
   EXPECT_EQ(report["metrics"]["registered"], 16);
   EXPECT_GE(report["metrics"]["inconsistent_observations"].get<int>(), 0);
+  // Most observations are aligned onto their tracks.
+  EXPECT_GT(report["metrics"]["refined_observations"].get<int>(),
+            4 * report["metrics"]["unrefined_observations"].get<int>());
   EXPECT_LT(report["metrics"]["reprojection_rms_px"].get<double>(), 0.5);
   EXPECT_TRUE(fs::exists(out / "top_view.png"));
 }

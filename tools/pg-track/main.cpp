@@ -302,6 +302,9 @@ int main(int argc, char** argv) {
     report.set_metric("unregistered", result.unregistered);
     report.set_metric("tracks", correspondences.tracks.tracks.size());
     report.set_metric("inconsistent_observations", correspondences.inconsistent_observations);
+    report.set_metric("refined_observations", correspondences.refinement.refined);
+    report.set_metric("unrefined_observations", correspondences.refinement.refused);
+    report.set_metric("mean_refinement_shift_px", correspondences.refinement.mean_shift_px);
     report.set_metric("principal_point_refined", result.principal_point_refined);
     report.set_metric("points", result.points.size());
     report.set_metric("reprojection_rms_px", result.rms_px);

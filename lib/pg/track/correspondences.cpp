@@ -365,7 +365,7 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
     std::vector<cv::Mat> grays;
     for (const WorkingFrame& w : work) grays.push_back(w.gray8);
     const ScopedTimer timer("position refinement");
-    const PositionRefinementStats stats =
+    const PositionRefinementStats& stats = result.refinement =
         refine_track_positions(grays, points, shapes, link_components(sizes, links), options.refinement);
     log::debug("position refinement: ", stats.refined, " observations moved (mean ", stats.mean_shift_px,
                " px), ", stats.refused, " left");

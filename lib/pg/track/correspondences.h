@@ -62,8 +62,9 @@ struct VerifiedPair {
 
 struct CorrespondenceResult {
   TrackSet tracks;
-  std::vector<VerifiedPair> pairs;    // every pair matched, accepted or not
-  int inconsistent_observations = 0;  // removed by the three-view consistency check
+  std::vector<VerifiedPair> pairs;     // every pair matched, accepted or not
+  int inconsistent_observations = 0;   // removed by the three-view consistency check
+  PositionRefinementStats refinement;  // zero when refinement is off
 };
 
 // Throws InputError for unreadable images or masks of a different size than their image,
