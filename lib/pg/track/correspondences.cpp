@@ -160,11 +160,11 @@ std::vector<std::pair<int, int>> loop_pairs(const std::vector<FrameFeatures>& fe
 
 }  // namespace
 
-std::vector<NodeTrack> link_components(const std::vector<std::size_t>& frame_sizes,
+std::vector<NodeTrack> link_components(const std::vector<std::vector<cv::Point2f>>& frame_points,
                                        const std::vector<PointLink>& links) {
-  std::vector<int> offset(frame_sizes.size() + 1, 0);
-  for (std::size_t f = 0; f < frame_sizes.size(); ++f)
-    offset[f + 1] = offset[f] + static_cast<int>(frame_sizes[f]);
+  std::vector<int> offset(frame_points.size() + 1, 0);
+  for (std::size_t f = 0; f < frame_points.size(); ++f)
+    offset[f + 1] = offset[f] + static_cast<int>(frame_points[f].size());
   std::vector<int> parent(offset.back());
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](int x) {
@@ -181,8 +181,8 @@ std::vector<NodeTrack> link_components(const std::vector<std::size_t>& frame_siz
   // Group nodes by root, in frame order (nodes are numbered frame by frame).
   std::vector<int> track_of_root(parent.size(), -1);
   std::vector<NodeTrack> members;
-  for (std::size_t f = 0; f < frame_sizes.size(); ++f)
-    for (int i = 0; i < static_cast<int>(frame_sizes[f]); ++i) {
+  for (std::size_t f = 0; f < frame_points.size(); ++f)
+    for (int i = 0; i < static_cast<int>(frame_points[f].size()); ++i) {
       const int node = offset[f] + i;
       if (!linked[node]) continue;
       const int root = find(node);
@@ -205,17 +205,20 @@ std::vector<NodeTrack> link_components(const std::vector<std::size_t>& frame_siz
   return tracks;
 }
 
-std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Point2f>>& frame_points,
-                                           const std::vector<PointLink>& links) {
-  std::vector<std::size_t> sizes;
-  for (const auto& p : frame_points) sizes.push_back(p.size());
+std::vector<Track> tracks_of_components(const std::vector<std::vector<cv::Point2f>>& frame_points,
+                                        const std::vector<NodeTrack>& components) {
   std::vector<Track> tracks;
-  for (const NodeTrack& nodes : link_components(sizes, links)) {
+  for (const NodeTrack& nodes : components) {
     Track& t = tracks.emplace_back();
     for (const auto& [frame, index] : nodes)
       t.observations.push_back({frame, frame_points[frame][index].x, frame_points[frame][index].y});
   }
   return tracks;
+}
+
+std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Point2f>>& frame_points,
+                                           const std::vector<PointLink>& links) {
+  return tracks_of_components(frame_points, link_components(frame_points, links));
 }
 
 double sampson_distance(const cv::Matx33d& fundamental, const cv::Point2d& a, const cv::Point2d& b) {
@@ -359,14 +362,14 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
     }
   }
 
+  // Refinement moves points, never links: the components found here are the tracks built below.
+  const std::vector<NodeTrack> components = link_components(points, links);
   if (options.refine_positions) {
-    std::vector<std::size_t> sizes;
-    for (const auto& p : points) sizes.push_back(p.size());
     std::vector<cv::Mat> grays;
     for (const WorkingFrame& w : work) grays.push_back(w.gray8);
     const ScopedTimer timer("position refinement");
     const PositionRefinementStats& stats = result.refinement =
-        refine_track_positions(grays, points, shapes, link_components(sizes, links), options.refinement);
+        refine_track_positions(grays, points, shapes, components, options.refinement);
     log::debug("position refinement: ", stats.refined, " observations moved (mean ", stats.mean_shift_px,
                " px), ", stats.refused, " left");
   }
@@ -374,7 +377,7 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
   // To full-resolution pixels, then tracks.
   for (int f = 0; f < n; ++f)
     for (cv::Point2f& p : points[f]) p = work[f].to_full(p);
-  result.tracks.tracks = merge_links_into_tracks(points, links);
+  result.tracks.tracks = tracks_of_components(points, components);
   if (options.track_consistency) {
     result.inconsistent_observations =
         enforce_track_consistency(result.tracks.tracks, result.pairs,

@@ -82,9 +82,12 @@ struct PointLink {
 std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Point2f>>& frame_points,
                                            const std::vector<PointLink>& links);
 
-// The same components as (frame, index) nodes, from each frame's point count.
-std::vector<NodeTrack> link_components(const std::vector<std::size_t>& frame_sizes,
+// merge_links_into_tracks in two steps: the components as (frame, index) nodes (only the point
+// counts of `frame_points` matter), then the tracks of those nodes at `frame_points`' positions.
+std::vector<NodeTrack> link_components(const std::vector<std::vector<cv::Point2f>>& frame_points,
                                        const std::vector<PointLink>& links);
+std::vector<Track> tracks_of_components(const std::vector<std::vector<cv::Point2f>>& frame_points,
+                                        const std::vector<NodeTrack>& components);
 
 // Three-view consistency. Merging pairwise links can chain links that are each right into a track
 // that is wrong (a-b and b-c verified, but a's and c's observations are of different points). Every
