@@ -162,6 +162,7 @@ std::vector<std::pair<int, int>> loop_pairs(const std::vector<FrameFeatures>& fe
 
 std::vector<NodeTrack> link_components(const std::vector<std::vector<cv::Point2f>>& frame_points,
                                        const std::vector<PointLink>& links) {
+  constexpr float coincident_px = 0.5f;  // a frame's points this close are one detection
   std::vector<int> offset(frame_points.size() + 1, 0);
   for (std::size_t f = 0; f < frame_points.size(); ++f)
     offset[f + 1] = offset[f] + static_cast<int>(frame_points[f].size());
@@ -192,13 +193,19 @@ std::vector<NodeTrack> link_components(const std::vector<std::vector<cv::Point2f
       }
       members[track_of_root[root]].push_back({static_cast<int>(f), i});
     }
+  // A frame's nodes in one component: one observation when they coincide (SIFT gives a keypoint with
+  // two dominant orientations twice, at one place, and neighbours may match either), none otherwise.
   std::vector<NodeTrack> tracks;
   for (const NodeTrack& m : members) {
     NodeTrack t;
-    for (std::size_t k = 0; k < m.size(); ++k) {
-      const bool twice =
-          (k > 0 && m[k - 1].first == m[k].first) || (k + 1 < m.size() && m[k + 1].first == m[k].first);
-      if (!twice) t.push_back(m[k]);
+    for (std::size_t first = 0, end = 0; first < m.size(); first = end) {
+      const auto [frame, index] = m[first];
+      bool coincide = true;
+      for (end = first + 1; end < m.size() && m[end].first == frame; ++end) {
+        const cv::Point2f d = frame_points[frame][m[end].second] - frame_points[frame][index];
+        coincide = coincide && d.dot(d) <= coincident_px * coincident_px;
+      }
+      if (coincide) t.push_back(m[first]);  // the first: detect_sift stores the strongest first
     }
     if (t.size() >= 2) tracks.push_back(std::move(t));
   }

@@ -74,16 +74,17 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
 
 // Union-find merge of pairwise links between per-frame point lists into tracks. `frame_points[f]` holds
 // frame f's points in full-resolution pixels; links join (frame, index) nodes. A component that holds
-// two different points of one frame drops that frame's observations (ambiguous); components left with
-// fewer than two observations are dropped.
+// several points of one frame keeps the first of them when they coincide (within 0.5 px: one keypoint
+// detected twice, with two orientations) and drops that frame's observations otherwise (ambiguous);
+// components left with fewer than two observations are dropped.
 struct PointLink {
   int frame_a, index_a, frame_b, index_b;
 };
 std::vector<Track> merge_links_into_tracks(const std::vector<std::vector<cv::Point2f>>& frame_points,
                                            const std::vector<PointLink>& links);
 
-// merge_links_into_tracks in two steps: the components as (frame, index) nodes (only the point
-// counts of `frame_points` matter), then the tracks of those nodes at `frame_points`' positions.
+// merge_links_into_tracks in two steps: the components as (frame, index) nodes, then the tracks of those
+// nodes at `frame_points`' positions.
 std::vector<NodeTrack> link_components(const std::vector<std::vector<cv::Point2f>>& frame_points,
                                        const std::vector<PointLink>& links);
 std::vector<Track> tracks_of_components(const std::vector<std::vector<cv::Point2f>>& frame_points,

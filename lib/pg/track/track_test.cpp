@@ -83,6 +83,18 @@ TEST(Tracks, MergeLinksJoinsChainsAndDropsAmbiguousFrames) {
   EXPECT_EQ(ambiguous[0].observations[0].frame, 1);
 }
 
+TEST(Tracks, MergeLinksKeepsOneOfCoincidentPointsOfAFrame) {
+  // Frame 0 holds one keypoint twice (SIFT: two orientations at one place) and a point 3 px away.
+  const std::vector<std::vector<cv::Point2f>> points = {{{10, 10}, {10, 10}, {13, 10}}, {{3, 3}}, {{4, 4}}};
+  const std::vector<NodeTrack> coincident =
+      link_components(points, {{0, 0, 1, 0}, {1, 0, 2, 0}, {0, 1, 2, 0}});
+  ASSERT_EQ(coincident.size(), 1u);
+  EXPECT_EQ(coincident[0], (NodeTrack{{0, 0}, {1, 0}, {2, 0}}));  // frame 0 kept once, its first node
+  const std::vector<NodeTrack> apart = link_components(points, {{0, 0, 1, 0}, {1, 0, 2, 0}, {0, 2, 2, 0}});
+  ASSERT_EQ(apart.size(), 1u);
+  EXPECT_EQ(apart[0], (NodeTrack{{1, 0}, {2, 0}}));  // two different places: frame 0 is ambiguous
+}
+
 // Four cameras on an arc around the origin and the exact fundamental matrices of their pairs.
 struct ThreeViewScene {
   std::vector<Camera> cameras;
