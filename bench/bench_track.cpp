@@ -2,7 +2,8 @@
 // intrinsics, in one run: registered images, centre error (% of the path extent, after similarity
 // alignment) and rotation error against ground truth (after that alignment, and orientation-aligned),
 // wall time of each (features + matching + mapping) and the time ratio. COLMAP is skipped with a
-// message when it is not installed.
+// message when it is not installed. To tell the front end (features, matching, tracks) from the
+// mapper, pg's mapper is also run on COLMAP's final tracks ("pg-map", "pg-map4").
 //   bench_track [data folder, default $PG_DATA_DIR or ../shared/data] [set names: temple-sparse,
 //   temple-ring, herz-half, herz-full, entry-half, entry-full; default all]
 #include <algorithm>
@@ -70,12 +71,10 @@ Outcome evaluate(const pg::CameraSet& estimate, const pg::CameraSet& truth, doub
   return o;
 }
 
-Outcome run_pg(const Dataset& d, bool known) {
-  const auto start = std::chrono::steady_clock::now();
-  std::vector<pg::SequenceFrame> frames;
+// The starting cameras of a run: the true intrinsics, or pg-track's default focal guess.
+std::vector<pg::Camera> initial_cameras(const Dataset& d, bool known) {
   std::vector<pg::Camera> initial;
   for (const pg::Camera& c : d.truth.cameras) {
-    frames.push_back({c.id, d.images / fs::path(c.image).filename(), {}});
     pg::Camera guess = c;
     if (!known) {
       const double f = pg::default_focal_guess(c.width, c.height);
@@ -84,12 +83,24 @@ Outcome run_pg(const Dataset& d, bool known) {
     }
     initial.push_back(guess);
   }
-  const pg::CorrespondenceResult corr = pg::build_correspondences(frames, {});
+  return initial;
+}
+
+pg::SfmOptions sfm_options(bool known) {
   pg::SfmOptions options;
   options.shared_intrinsics = !known;
   options.refine_focal = !known;
   if (!known) options.principal_point = pg::PrincipalPointMode::when_better;  // pg-track's default
-  const pg::SfmResult result = pg::reconstruct(corr.tracks, initial, options);
+  return options;
+}
+
+Outcome run_pg(const Dataset& d, bool known) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<pg::SequenceFrame> frames;
+  for (const pg::Camera& c : d.truth.cameras)
+    frames.push_back({c.id, d.images / fs::path(c.image).filename(), {}});
+  const pg::CorrespondenceResult corr = pg::build_correspondences(frames, {});
+  const pg::SfmResult result = pg::reconstruct(corr.tracks, initial_cameras(d, known), sfm_options(known));
   return evaluate(pg::registered_cameras(result), d.truth, seconds_since(start));
 }
 
@@ -101,24 +112,35 @@ int run_command(const std::string& command) {
   return std::system((command + " > /dev/null 2>&1").c_str());
 }
 
+struct ColmapModel {
+  pg::CameraSet cameras;
+  pg::TrackSet tracks;  // its points' observations, frames in the order of the truth
+};
+
 // COLMAP's pixel (0, 0) is the corner of the top-left pixel; pg's is its centre.
-pg::CameraSet read_colmap_text(const fs::path& folder, const pg::CameraSet& truth) {
+ColmapModel read_colmap_text(const fs::path& folder, const pg::CameraSet& truth) {
+  ColmapModel model;
+  std::map<std::string, int> frame_of;
+  for (const pg::Camera& c : truth.cameras) {
+    frame_of[c.id] = static_cast<int>(model.tracks.frames.size());
+    model.tracks.frames.push_back({c.id, c.image, c.width, c.height});
+  }
   std::map<int, pg::Intrinsics> intrinsics;
   std::ifstream cams(folder / "cameras.txt");
   for (std::string line; std::getline(cams, line);) {
     if (line.empty() || line[0] == '#') continue;
     std::istringstream in(line);
     int id, w, h;
-    std::string model;
-    in >> id >> model >> w >> h;
+    std::string model_name;
+    in >> id >> model_name >> w >> h;
     std::vector<double> p;
     for (double x; in >> x;) p.push_back(x);
-    if (model == "PINHOLE")
+    if (model_name == "PINHOLE")
       intrinsics[id] = {p[0], p[1], p[2] - 0.5, p[3] - 0.5};
     else
       intrinsics[id] = {p[0], p[0], p[1] - 0.5, p[2] - 0.5};  // SIMPLE_RADIAL, SIMPLE_PINHOLE, RADIAL
   }
-  pg::CameraSet set;
+  std::map<long, pg::Track> tracks;
   std::ifstream images(folder / "images.txt");
   for (std::string line; std::getline(images, line);) {
     if (line.empty() || line[0] == '#') continue;
@@ -127,7 +149,7 @@ pg::CameraSet read_colmap_text(const fs::path& folder, const pg::CameraSet& trut
     double qw, qx, qy, qz, tx, ty, tz;
     std::string name;
     in >> id >> qw >> qx >> qy >> qz >> tx >> ty >> tz >> camera >> name;
-    std::getline(images, line);  // the 2D points line
+    std::getline(images, line);  // the 2D points line: x y point3D_id (-1: none)
     const std::string stem = fs::path(name).stem().string();
     const pg::Camera* t = truth.find(stem);
     if (!t) continue;
@@ -135,12 +157,50 @@ pg::CameraSet read_colmap_text(const fs::path& folder, const pg::CameraSet& trut
     c.intrinsics = intrinsics[camera];
     c.cam_from_world.rotation = Eigen::Quaterniond(qw, qx, qy, qz).normalized();
     c.cam_from_world.translation = {tx, ty, tz};
-    set.cameras.push_back(c);
+    model.cameras.cameras.push_back(c);
+    std::istringstream points(line);
+    double x, y;
+    long point;
+    while (points >> x >> y >> point)
+      if (point >= 0)
+        tracks[point].observations.push_back(
+            {frame_of.at(stem), static_cast<float>(x - 0.5), static_cast<float>(y - 0.5)});
   }
-  return set;
+  for (auto& [point, track] : tracks) {
+    std::sort(track.observations.begin(), track.observations.end(),
+              [](const pg::TrackObservation& a, const pg::TrackObservation& b) { return a.frame < b.frame; });
+    model.tracks.tracks.push_back(std::move(track));
+  }
+  return model;
 }
 
-Outcome run_colmap(const Dataset& d, bool known, const fs::path& work) {
+// pg's mapper on COLMAP's final tracks: with the same observations, what is left of a difference
+// between the tools is the mapper's. `colmap_bounds` uses COLMAP's mapper settings (4 px outlier
+// bound, squared loss) instead of pg's (1.5 px, Huber at 1 px), which suit pg's more precise
+// observations. The tracks have already been filtered by COLMAP's mapper.
+Outcome run_pg_on_tracks(const Dataset& d, bool known, const pg::TrackSet& tracks, bool colmap_bounds) {
+  const auto start = std::chrono::steady_clock::now();
+  pg::SfmOptions options = sfm_options(known);
+  if (colmap_bounds) {
+    options.max_reprojection_px = 4;
+    options.huber_px = 1e6;  // no observation within the bound reaches it: squared loss
+  }
+  try {
+    const pg::SfmResult result = pg::reconstruct(tracks, initial_cameras(d, known), options);
+    return evaluate(pg::registered_cameras(result), d.truth, seconds_since(start));
+  } catch (const std::exception& e) {
+    std::cerr << "pg's mapper on COLMAP's tracks of " << d.name << ": " << e.what() << "\n";
+    return {};
+  }
+}
+
+struct ColmapOutcome {
+  Outcome colmap;
+  // pg's mapper on COLMAP's tracks, with pg's and with COLMAP's outlier settings.
+  Outcome pg_mapper, pg_mapper_colmap_bounds;
+};
+
+ColmapOutcome run_colmap(const Dataset& d, bool known, const fs::path& work) {
   fs::remove_all(work);
   fs::create_directories(work / "sparse");
   const std::string db = (work / "db.db").string(), images = d.images.string();
@@ -166,16 +226,22 @@ Outcome run_colmap(const Dataset& d, bool known, const fs::path& work) {
   if (run_command(map) != 0) return {};
   const double seconds = seconds_since(start);
   // The largest model.
-  pg::CameraSet best;
+  ColmapModel best;
   for (const auto& entry : fs::directory_iterator(work / "sparse")) {
     const fs::path txt = work / ("txt_" + entry.path().filename().string());
     fs::create_directories(txt);
     run_command("colmap model_converter --input_path " + entry.path().string() + " --output_path " +
                 txt.string() + " --output_type TXT");
-    pg::CameraSet set = read_colmap_text(txt, d.truth);
-    if (set.cameras.size() > best.cameras.size()) best = set;
+    ColmapModel model = read_colmap_text(txt, d.truth);
+    if (model.cameras.cameras.size() > best.cameras.cameras.size()) best = std::move(model);
   }
-  return evaluate(best, d.truth, seconds);
+  ColmapOutcome out;
+  out.colmap = evaluate(best.cameras, d.truth, seconds);
+  if (!best.tracks.tracks.empty()) {
+    out.pg_mapper = run_pg_on_tracks(d, known, best.tracks, false);
+    out.pg_mapper_colmap_bounds = run_pg_on_tracks(d, known, best.tracks, true);
+  }
+  return out;
 }
 
 // Images resized by `factor` into `folder` (for the half-resolution sets).
@@ -208,7 +274,7 @@ Dataset linked(const std::string& name, const fs::path& source, const pg::Camera
 
 void print_row(const std::string& set, const std::string& mode, const std::string& tool, const Outcome& o,
                std::size_t frames) {
-  std::cout << std::left << std::setw(22) << set << std::setw(11) << mode << std::setw(8) << tool;
+  std::cout << std::left << std::setw(22) << set << std::setw(11) << mode << std::setw(9) << tool;
   if (!o.ran) {
     std::cout << "failed\n";
     return;
@@ -259,18 +325,27 @@ int main(int argc, char** argv) {
     std::cout << "no data found under " << data << "\n";
     return 0;
   }
-  std::cout << "set                   mode       tool    registered centre%    rot(deg)   orient(deg) focal% "
-               "  time\n";
+  if (colmap)
+    std::cout << "pg-map: pg's mapper on COLMAP's final tracks (time: mapping only); pg-map4: the same with "
+                 "COLMAP's outlier bound (4 px) and squared loss\n";
+  std::cout
+      << "set                   mode       tool     registered centre%    rot(deg)   orient(deg) focal% "
+         "  time\n";
   for (const Dataset& d : sets)
     for (const bool known : {false, true}) {
       const std::string mode = known ? "known K" : "self-cal";
       const Outcome ours = run_pg(d, known);
       print_row(d.name, mode, "pg", ours, d.truth.cameras.size());
       if (!colmap) continue;
-      const Outcome theirs = run_colmap(d, known, work / "colmap");
+      const ColmapOutcome colmap_run = run_colmap(d, known, work / "colmap");
+      const Outcome& theirs = colmap_run.colmap;
       print_row(d.name, mode, "colmap", theirs, d.truth.cameras.size());
+      if (theirs.ran) {
+        print_row(d.name, mode, "pg-map", colmap_run.pg_mapper, d.truth.cameras.size());
+        print_row(d.name, mode, "pg-map4", colmap_run.pg_mapper_colmap_bounds, d.truth.cameras.size());
+      }
       if (theirs.ran && ours.ran)
-        std::cout << std::left << std::setw(41) << ""
+        std::cout << std::left << std::setw(42) << ""
                   << "time ratio pg/colmap " << std::setprecision(2) << ours.seconds / theirs.seconds
                   << ", centre error ratio "
                   << (theirs.median_centre_percent > 0
