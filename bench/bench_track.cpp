@@ -120,11 +120,7 @@ struct ColmapModel {
 // COLMAP's pixel (0, 0) is the corner of the top-left pixel; pg's is its centre.
 ColmapModel read_colmap_text(const fs::path& folder, const pg::CameraSet& truth) {
   ColmapModel model;
-  std::map<std::string, int> frame_of;
-  for (const pg::Camera& c : truth.cameras) {
-    frame_of[c.id] = static_cast<int>(model.tracks.frames.size());
-    model.tracks.frames.push_back({c.id, c.image, c.width, c.height});
-  }
+  for (const pg::Camera& c : truth.cameras) model.tracks.frames.push_back({c.id, c.image, c.width, c.height});
   std::map<int, pg::Intrinsics> intrinsics;
   std::ifstream cams(folder / "cameras.txt");
   for (std::string line; std::getline(cams, line);) {
@@ -153,6 +149,7 @@ ColmapModel read_colmap_text(const fs::path& folder, const pg::CameraSet& truth)
     const std::string stem = fs::path(name).stem().string();
     const pg::Camera* t = truth.find(stem);
     if (!t) continue;
+    const int frame = static_cast<int>(t - truth.cameras.data());  // tracks.frames follows the truth
     pg::Camera c = *t;
     c.intrinsics = intrinsics[camera];
     c.cam_from_world.rotation = Eigen::Quaterniond(qw, qx, qy, qz).normalized();
@@ -164,7 +161,7 @@ ColmapModel read_colmap_text(const fs::path& folder, const pg::CameraSet& truth)
     while (points >> x >> y >> point)
       if (point >= 0)
         tracks[point].observations.push_back(
-            {frame_of.at(stem), static_cast<float>(x - 0.5), static_cast<float>(y - 0.5)});
+            {frame, static_cast<float>(x - 0.5), static_cast<float>(y - 0.5)});
   }
   for (auto& [point, track] : tracks) {
     std::sort(track.observations.begin(), track.observations.end(),
