@@ -123,6 +123,29 @@ TEST_F(PgTrack, OutputsDoNotDependOnTheThreadCount) {
   }
 }
 
+// --seed draws the approximate descriptor matching: another seed gives other tracks, and a camera
+// recovery as accurate as the default's.
+TEST_F(PgTrack, TheSeedDrawsTheMatchesAndEverySeedMeetsTheTargets) {
+  TempDir first, other;
+  for (const auto& [dir, seed] : {std::pair{&first, "1"}, std::pair{&other, "7"}}) {
+    const auto r = run_tool("pg-track", {"--images", (scene() / "images").string(), "--cameras",
+                                         (scene() / "cameras.json").string(), "--range", "0:8", "--out",
+                                         dir->path().string(), "--seed", seed});
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  }
+  EXPECT_NE(pg::testing::read_text(first / "tracks.json"), pg::testing::read_text(other / "tracks.json"));
+  const pg::CameraSet truth = pg::read_cameras(scene() / "cameras.json");
+  for (const TempDir* dir : {&first, &other}) {
+    const pg::CameraSet estimate = pg::read_cameras(*dir / "cameras.json");
+    ASSERT_EQ(estimate.cameras.size(), 8u);
+    pg::CameraSet seen;
+    for (const pg::Camera& c : estimate.cameras) seen.cameras.push_back(*truth.find(c.id));
+    const pg::CameraEvalResult eval = pg::evaluate_cameras(estimate, truth);
+    EXPECT_LT(eval.centre_error.median, 0.001 * path_extent(seen));
+    EXPECT_LT(eval.rotation_error_deg.median, 0.05);
+  }
+}
+
 TEST_F(PgTrack, OrbitSelfCalibratesTheFocalLength) {
   TempDir out;
   const auto r =

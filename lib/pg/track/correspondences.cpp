@@ -358,7 +358,7 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
     timer.emplace("sift matching");
     std::vector<std::unique_ptr<DescriptorIndex>> indices;
     for (const FrameFeatures& f : features)
-      indices.push_back(std::make_unique<DescriptorIndex>(f.descriptors));
+      indices.push_back(std::make_unique<DescriptorIndex>(f.descriptors, options.seed));
     SiftMatcher matcher{work, features, indices, options, links, offset, result.pairs};
     matcher.match_all(sift_pairs, false);
     if (options.loop_matching) {

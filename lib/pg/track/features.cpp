@@ -90,14 +90,17 @@ struct DescriptorIndex::Impl {
   cv::flann::Index index;
 };
 
-DescriptorIndex::DescriptorIndex(const cv::Mat& descriptors) : impl_(new Impl), rows_(descriptors.rows) {
+DescriptorIndex::DescriptorIndex(const cv::Mat& descriptors, std::uint64_t seed)
+    : impl_(new Impl), rows_(descriptors.rows) {
   impl_->data = descriptors.clone();
   if (rows_ < 2) return;
-  // The randomised trees draw from the C library's rand(): a fixed seed per build (under a lock, the
-  // state is global) makes every index, hence every match, independent of what ran before.
+  // The randomised trees draw from the C library's rand(): seeding it per build (under a lock, the
+  // state is global) makes every index, hence every match, independent of what ran before. Seed 1
+  // keeps the stream every earlier release used.
+  const std::uint64_t mixed = (seed - 1) * 0x9e3779b97f4a7c15ull;
   static std::mutex rand_mutex;
   const std::lock_guard lock(rand_mutex);
-  cvflann::seed_random(0x9e3779b9u);
+  cvflann::seed_random(0x9e3779b9u ^ static_cast<unsigned>(mixed ^ (mixed >> 32)));
   impl_->index.build(impl_->data, cv::flann::KDTreeIndexParams(4), cvflann::FLANN_DIST_L2);
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // Local features of one frame: SIFT keypoints with RootSIFT descriptors, descriptor matching with the
 // ratio test and a mutual check, and robust two-view verification by a fundamental matrix.
+#include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -38,10 +39,11 @@ std::vector<FeatureMatch> match_descriptors(const cv::Mat& descriptors_a, const 
                                             double ratio = 0.8, bool mutual = true);
 
 // Approximate nearest neighbours over one frame's descriptors (randomised kd-trees, FLANN): built once
-// per frame, queried by every pair the frame takes part in.
+// per frame, queried by every pair the frame takes part in. `seed` draws the trees: the same seed
+// gives the same index, and so the same matches.
 class DescriptorIndex {
  public:
-  explicit DescriptorIndex(const cv::Mat& descriptors);
+  explicit DescriptorIndex(const cv::Mat& descriptors, std::uint64_t seed = 1);
   ~DescriptorIndex();
   DescriptorIndex(const DescriptorIndex&) = delete;
   DescriptorIndex& operator=(const DescriptorIndex&) = delete;

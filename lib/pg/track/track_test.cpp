@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
@@ -191,6 +192,36 @@ TEST(Features, SiftMatchesFollowAKnownHomography) {
   // The brute-force matcher agrees on most matches.
   const std::vector<FeatureMatch> exact = match_descriptors(a.descriptors, b.descriptors);
   EXPECT_GT(matches.size(), exact.size() * 8 / 10);
+}
+
+// The seed draws the kd-trees: one seed always gives the same neighbours, another seed other
+// approximate ones (the 64-check search misses some true nearest neighbours, and which ones depends
+// on the trees), and both find most true nearest neighbours. Queries are noisy copies of indexed rows.
+TEST(Features, DescriptorIndexIsDrawnByItsSeed) {
+  cv::Mat data(3000, 128, CV_32F), queries(500, 128, CV_32F);
+  cv::RNG rng(11);
+  rng.fill(data, cv::RNG::UNIFORM, 0.0, 1.0);
+  rng.fill(queries, cv::RNG::NORMAL, 0.0, 0.15);
+  queries += data.rowRange(0, queries.rows);
+  const auto nearest = [&](std::uint64_t seed) {
+    const DescriptorIndex index(data, seed);
+    cv::Mat indices, distances;
+    index.nearest_two(queries, indices, distances);
+    std::vector<int> first_neighbour;
+    for (int q = 0; q < indices.rows; ++q) first_neighbour.push_back(indices.at<int>(q, 0));
+    return first_neighbour;
+  };
+  cv::BFMatcher exact(cv::NORM_L2);
+  std::vector<cv::DMatch> truth;
+  exact.match(queries, data, truth);
+  const std::vector<int> first = nearest(1), again = nearest(1), other = nearest(7);
+  EXPECT_EQ(first, again);
+  EXPECT_NE(first, other);
+  for (const std::vector<int>* found : {&first, &other}) {
+    std::size_t right = 0;
+    for (std::size_t q = 0; q < truth.size(); ++q) right += (*found)[q] == truth[q].trainIdx ? 1 : 0;
+    EXPECT_GT(right, truth.size() * 3 / 4);
+  }
 }
 
 TEST(Klt, TracksAShiftedImageToSubPixelAccuracy) {
