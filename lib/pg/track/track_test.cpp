@@ -16,6 +16,17 @@ namespace {
 
 using testing::TempDir;
 
+// Uniform noise blurred to blobs a few pixels across, stretched to the full 8-bit range: texture that
+// SIFT and KLT find everywhere.
+cv::Mat blurred_noise(cv::Size size, int seed) {
+  cv::Mat image(size, CV_8UC1);
+  cv::RNG rng(seed);
+  rng.fill(image, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(image, image, cv::Size(0, 0), 2.0);
+  cv::normalize(image, image, 0, 255, cv::NORM_MINMAX);
+  return image;
+}
+
 TrackSet small_set() {
   TrackSet set;
   set.method = "sift";
@@ -169,11 +180,7 @@ TEST(Tracks, ThreeViewCheckDropsTheObservationThatContradictsTheOthers) {
 
 // A textured image and a copy under a known homography: verified SIFT matches follow it.
 TEST(Features, SiftMatchesFollowAKnownHomography) {
-  cv::Mat base(480, 640, CV_8UC1);
-  cv::RNG rng(7);
-  rng.fill(base, cv::RNG::UNIFORM, 0, 255);
-  cv::GaussianBlur(base, base, cv::Size(0, 0), 2.0);
-  cv::normalize(base, base, 0, 255, cv::NORM_MINMAX);
+  const cv::Mat base = blurred_noise(cv::Size(640, 480), 7);
   cv::Matx33d H(0.95, 0.05, 12, -0.04, 0.97, 8, 1e-5, 2e-5, 1);
   cv::Mat warped;
   cv::warpPerspective(base, warped, cv::Mat(H), base.size(), cv::INTER_CUBIC);
@@ -198,11 +205,7 @@ TEST(Features, SiftMatchesFollowAKnownHomography) {
 // in its mirror image, on average to a few hundredths of a pixel. A bias d in the detector's
 // positions shows as a mean offset of 2d: OpenCV's uncorrected 0.25 px (detect_sift) as 0.5 px.
 TEST(Features, KeypointsArePlacedInPixelCentreCoordinates) {
-  cv::Mat base(480, 640, CV_8UC1);
-  cv::RNG rng(5);
-  rng.fill(base, cv::RNG::UNIFORM, 0, 255);
-  cv::GaussianBlur(base, base, cv::Size(0, 0), 2.0);
-  cv::normalize(base, base, 0, 255, cv::NORM_MINMAX);
+  const cv::Mat base = blurred_noise(cv::Size(640, 480), 5);
   cv::Mat mirrored;
   cv::flip(base, mirrored, 1);
   const FrameFeatures a = detect_sift(base, {}, 0), b = detect_sift(mirrored, {}, 0);
@@ -251,11 +254,7 @@ TEST(Features, DescriptorIndexIsDrawnByItsSeed) {
 }
 
 TEST(Klt, TracksAShiftedImageToSubPixelAccuracy) {
-  cv::Mat base(240, 320, CV_8UC1);
-  cv::RNG rng(3);
-  rng.fill(base, cv::RNG::UNIFORM, 0, 255);
-  cv::GaussianBlur(base, base, cv::Size(0, 0), 2.0);
-  cv::normalize(base, base, 0, 255, cv::NORM_MINMAX);
+  const cv::Mat base = blurred_noise(cv::Size(320, 240), 3);
   std::vector<cv::Mat> frames{base};
   for (int f = 1; f < 4; ++f) {
     cv::Mat shifted;
