@@ -172,15 +172,17 @@ ColmapModel read_colmap_text(const fs::path& folder, const pg::CameraSet& truth)
 }
 
 // pg's mapper on COLMAP's final tracks: with the same observations, what is left of a difference
-// between the tools is the mapper's. `colmap_bounds` uses COLMAP's mapper settings (4 px outlier
-// bound, squared loss) instead of pg's (1.5 px, Huber at 1 px), which suit pg's more precise
-// observations. The tracks have already been filtered by COLMAP's mapper.
+// between the tools is the mapper's. `colmap_bounds` uses COLMAP's mapper settings (a fixed 4 px
+// outlier bound, squared loss) instead of pg's (10 sigma of the observations' noise, at most 1.5 px,
+// with a Huber scale in proportion), which suit pg's more precise observations. The tracks have
+// already been filtered by COLMAP's mapper.
 Outcome run_pg_on_tracks(const Dataset& d, bool known, const pg::TrackSet& tracks, bool colmap_bounds) {
   const auto start = std::chrono::steady_clock::now();
   pg::SfmOptions options = sfm_options(known);
   if (colmap_bounds) {
     options.max_reprojection_px = 4;
-    options.huber_px = 1e6;  // no observation within the bound reaches it: squared loss
+    options.bound_sigmas = 0;  // a fixed bound, as COLMAP's
+    options.huber_px = 1e6;    // no observation within the bound reaches it: squared loss
   }
   try {
     const pg::SfmResult result = pg::reconstruct(tracks, initial_cameras(d, known), options);

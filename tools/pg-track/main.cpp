@@ -190,8 +190,15 @@ int main(int argc, char** argv) {
   app.add_flag("--no-refine-positions", o.no_refine_positions,
                "keep the detector's feature positions (default: each track's observations are aligned "
                "to sub-pixel accuracy on one of them)");
-  app.add_option("--max-error", so.max_reprojection_px, "reprojection error bound for inliers, pixels")
+  app.add_option("--max-error", so.max_reprojection_px,
+                 "largest reprojection error of an inlier, pixels (the bound follows the observations' "
+                 "noise below it)")
       ->capture_default_str();
+  app.add_option("--error-sigmas", so.bound_sigmas,
+                 "inlier bound in robust standard deviations of the reprojection error, at least "
+                 "0.1 px (0: always --max-error)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 100.0));
   app.add_option("--scale", o.scale, "ID_A ID_B METRES: scale so that these two cameras are this far apart")
       ->expected(3);
   app.add_option(
@@ -256,6 +263,7 @@ int main(int argc, char** argv) {
                                                                  : pg::PrincipalPointMode::when_better;
     so.refine_distortion = refine && o.refine_distortion;
     so.max_reprojection_px *= co.downscale;
+    so.min_reprojection_px *= co.downscale;
     so.huber_px *= co.downscale;
     pg::SfmResult result;
     {

@@ -65,6 +65,7 @@ class Mapper {
       std::fill(failed_at_.begin(), failed_at_.end(), 0);
       register_all(std::max(8, opt_.min_pnp_inliers / 2));
     }
+    adapt_bound_ = opt_.bound_sigmas > 0;
     for (int round = 0; round < 2; ++round) {
       retriangulate_all();
       global_round(true);
@@ -127,7 +128,7 @@ class Mapper {
   const IntrinsicParams& intr(int f) const { return intrinsics_[group_[f]]; }
   double aspect(int f) const { return aspect_[group_[f]]; }
   double focal(int f) const { return intr(f)[0]; }
-  double threshold() const { return opt_.max_reprojection_px; }
+  double threshold() const { return bound_px_; }
   int registered_count() const {
     return static_cast<int>(std::count(registered_.begin(), registered_.end(), true));
   }
@@ -309,7 +310,7 @@ class Mapper {
     b.refine_focal = global && enough && opt_.refine_focal;
     b.refine_principal_point = global && enough && principal_point_free_;
     b.refine_distortion = global && enough && opt_.refine_distortion;
-    b.huber_px = opt_.huber_px;
+    b.huber_px = opt_.huber_px * bound_px_ / opt_.max_reprojection_px;
     b.max_iterations = global ? 100 : 30;
     return b;
   }
@@ -395,9 +396,46 @@ class Mapper {
     points_ = points;
   }
 
+  // The observations' noise, per image axis: 1.4826 x the median absolute residual coordinate,
+  // scaled up by the degrees of freedom the points took (a point seen twice fits four coordinates
+  // with three parameters, so its residuals are half the noise).
+  double robust_sigma_px() const {
+    std::vector<double> residuals;
+    std::size_t point_count = 0;
+    for (const Point& point : points_) {
+      if (!point.alive) continue;
+      ++point_count;
+      for (int k : point.obs) {
+        const Obs& o = obs_[point.track][k];
+        Eigen::Vector2d projected;
+        if (!project_with_params(poses_[o.frame], intr(o.frame), aspect(o.frame), point.position, projected))
+          continue;
+        residuals.push_back(std::abs(projected.x() - o.pixel.x()));
+        residuals.push_back(std::abs(projected.y() - o.pixel.y()));
+      }
+    }
+    const double free_coordinates = static_cast<double>(residuals.size()) - 3.0 * point_count;
+    if (residuals.size() < 100 || free_coordinates <= 0) return 0;
+    auto middle = residuals.begin() + residuals.size() / 2;
+    std::nth_element(residuals.begin(), middle, residuals.end());
+    return 1.4826 * *middle * std::sqrt(residuals.size() / free_coordinates);
+  }
+
+  // The outlier bound follows the observations' noise: bound_sigmas x sigma, between
+  // min_reprojection_px and max_reprojection_px, the Huber scale in proportion.
+  void adapt_bound() {
+    if (!adapt_bound_) return;
+    const double sigma = robust_sigma_px();
+    if (sigma <= 0) return;
+    bound_px_ =
+        std::min(opt_.max_reprojection_px, std::max(opt_.min_reprojection_px, opt_.bound_sigmas * sigma));
+    log::debug("sfm: observation noise ", sigma, " px per axis: outlier bound ", bound_px_, " px");
+  }
+
   void global_round(bool refine) {
     for (int pass = 0; pass < 2; ++pass) {
       const BundleSummary s = global_bundle(bundle_options(refine));
+      adapt_bound();
       const int removed = filter_points();
       log::debug("sfm: global adjustment over ", registered_count(), " frames: rms ", s.final_rms_px, " px, ",
                  removed, " points removed");
@@ -663,7 +701,8 @@ class Mapper {
       c.cam_from_world = rigid_from_params(poses_[f]);
       r.frame_rms_px.push_back(r.frame_observations[f] ? std::sqrt(sq[f] / r.frame_observations[f]) : 0);
       if (registered_[f]) {
-        c.quality = std::clamp(1.0 - r.frame_rms_px[f] / threshold(), 0.0, 1.0) *
+        // Against the largest bound, not the adapted one: the same fit scores the same in every run.
+        c.quality = std::clamp(1.0 - r.frame_rms_px[f] / opt_.max_reprojection_px, 0.0, 1.0) *
                     std::min(1.0, r.frame_observations[f] / 100.0);
       } else {
         r.unregistered.push_back(c.id);
@@ -692,6 +731,8 @@ class Mapper {
   int gauge_frame_ = -1;
   int initial_pair_[2] = {-1, -1};
   int last_global_size_ = 2;
+  double bound_px_ = opt_.max_reprojection_px;  // the outlier bound now (adapt_bound)
+  bool adapt_bound_ = false;
 };
 
 }  // namespace
