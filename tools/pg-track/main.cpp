@@ -195,8 +195,8 @@ int main(int argc, char** argv) {
                  "noise below it)")
       ->capture_default_str();
   app.add_option("--error-sigmas", so.bound_sigmas,
-                 "inlier bound in robust standard deviations of the reprojection error, at least "
-                 "0.1 px (0: always --max-error)")
+                 "after registration, the inlier bound in robust standard deviations of the "
+                 "reprojection error, from 0.1 px up to --max-error (0: always --max-error)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 100.0));
   app.add_option("--scale", o.scale, "ID_A ID_B METRES: scale so that these two cameras are this far apart")
