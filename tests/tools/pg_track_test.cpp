@@ -108,6 +108,7 @@ TEST_F(PgTrack, OrbitWithExactIntrinsicsMeetsTheAccuracyTargets) {
 // it held at --max-error (--error-sigmas 0), a tail of observations 0.2-1.5 px off pulls the
 // cameras. Measured: rotation median 0.007 deg against 0.018 deg.
 TEST_F(PgTrack, TheOutlierBoundFollowsTheNoiseUnlessHeld) {
+  const pg::CameraSet truth = pg::read_cameras(scene() / "cameras.json");
   std::map<std::string, double> rotation;
   for (const std::string sigmas : {"10", "0"}) {
     TempDir out;
@@ -115,7 +116,6 @@ TEST_F(PgTrack, TheOutlierBoundFollowsTheNoiseUnlessHeld) {
                                          (scene() / "cameras.json").string(), "--error-sigmas", sigmas,
                                          "--out", out.path().string()});
     ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
-    const pg::CameraSet truth = pg::read_cameras(scene() / "cameras.json");
     rotation[sigmas] =
         pg::evaluate_cameras(pg::read_cameras(out / "cameras.json"), truth).rotation_error_deg.median;
   }

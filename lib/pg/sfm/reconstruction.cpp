@@ -6,6 +6,7 @@
 #include <numeric>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
+#include <optional>
 
 #include "pg/core/error.h"
 #include "pg/core/log.h"
@@ -144,10 +145,16 @@ class Mapper {
     return {x.x(), x.y(), 1.0};
   }
 
-  double reprojection_error(int f, const Eigen::Vector3d& X, const Eigen::Vector2d& px) const {
+  // Projection of X in frame f minus the observed pixel; none when X is behind the camera.
+  std::optional<Eigen::Vector2d> residual(int f, const Eigen::Vector3d& X, const Eigen::Vector2d& px) const {
     Eigen::Vector2d projected;
-    if (!project_with_params(poses_[f], intr(f), aspect(f), X, projected)) return 1e9;
-    return (projected - px).norm();
+    if (!project_with_params(poses_[f], intr(f), aspect(f), X, projected)) return std::nullopt;
+    return projected - px;
+  }
+
+  double reprojection_error(int f, const Eigen::Vector3d& X, const Eigen::Vector2d& px) const {
+    const std::optional<Eigen::Vector2d> r = residual(f, X, px);
+    return r ? r->norm() : 1e9;
   }
 
   Eigen::Vector3d centre(int f) const { return rigid_from_params(poses_[f]).centre(); }
@@ -407,11 +414,10 @@ class Mapper {
       ++point_count;
       for (int k : point.obs) {
         const Obs& o = obs_[point.track][k];
-        Eigen::Vector2d projected;
-        if (!project_with_params(poses_[o.frame], intr(o.frame), aspect(o.frame), point.position, projected))
-          continue;
-        residuals.push_back(std::abs(projected.x() - o.pixel.x()));
-        residuals.push_back(std::abs(projected.y() - o.pixel.y()));
+        const std::optional<Eigen::Vector2d> r = residual(o.frame, point.position, o.pixel);
+        if (!r) continue;
+        residuals.push_back(std::abs(r->x()));
+        residuals.push_back(std::abs(r->y()));
       }
     }
     const double free_coordinates = static_cast<double>(residuals.size()) - 3.0 * point_count;
