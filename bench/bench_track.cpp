@@ -4,6 +4,10 @@
 // wall time of each (features + matching + mapping) and the time ratio. COLMAP is skipped with a
 // message when it is not installed. To tell the front end (features, matching, tracks) from the
 // mapper, pg's mapper is also run on COLMAP's final tracks ("pg-map", "pg-map4").
+// Where both ran, the two tools' cameras are compared with each other, and each tool's tracks are
+// measured under the true cameras, pg's and COLMAP's: where the tools agree far better with each
+// other than with the truth, and the true cameras explain the tracks worse than either tool's, the
+// errors against the truth are mostly the truth's own.
 //   bench_track [data folder, default $PG_DATA_DIR or ../shared/data] [set names: temple-sparse,
 //   temple-ring, herz-half, herz-full, entry-half, entry-full; default all]
 #include <algorithm>
@@ -24,6 +28,7 @@
 #include "pg/build_info.h"
 #include "pg/eval/camera_eval.h"
 #include "pg/eval/orientation_error.h"
+#include "pg/eval/track_eval.h"
 #include "pg/eval/truth_import.h"
 #include "pg/image/huge_page_mats.h"
 #include "pg/sfm/reconstruction.h"
@@ -45,6 +50,8 @@ struct Outcome {
   std::size_t registered = 0;
   double median_centre_percent = 0, median_rotation_deg = 0, focal_error_percent = 0, seconds = 0;
   double median_orientation_deg = 0;  // orientation-aligned (pg/eval/orientation_error.h)
+  pg::CameraSet cameras;              // the registered cameras
+  pg::TrackSet tracks;                // the tool's own tracks (pg's, or COLMAP's final ones)
 };
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
@@ -56,6 +63,7 @@ Outcome evaluate(const pg::CameraSet& estimate, const pg::CameraSet& truth, doub
   o.ran = true;
   o.seconds = seconds;
   o.registered = estimate.cameras.size();
+  o.cameras = estimate;
   if (estimate.cameras.size() < 3) return o;
   const pg::CameraEvalResult e = pg::evaluate_cameras(estimate, truth);
   double extent = 0;
@@ -101,7 +109,9 @@ Outcome run_pg(const Dataset& d, bool known) {
     frames.push_back({c.id, d.images / fs::path(c.image).filename(), {}});
   const pg::CorrespondenceResult corr = pg::build_correspondences(frames, {});
   const pg::SfmResult result = pg::reconstruct(corr.tracks, initial_cameras(d, known), sfm_options(known));
-  return evaluate(pg::registered_cameras(result), d.truth, seconds_since(start));
+  Outcome o = evaluate(pg::registered_cameras(result), d.truth, seconds_since(start));
+  o.tracks = corr.tracks;
+  return o;
 }
 
 bool have_colmap() {
@@ -236,6 +246,7 @@ ColmapOutcome run_colmap(const Dataset& d, bool known, const fs::path& work) {
   }
   ColmapOutcome out;
   out.colmap = evaluate(best.cameras, d.truth, seconds);
+  out.colmap.tracks = best.tracks;
   if (!best.tracks.tracks.empty()) {
     out.pg_mapper = run_pg_on_tracks(d, known, best.tracks, false);
     out.pg_mapper_colmap_bounds = run_pg_on_tracks(d, known, best.tracks, true);
@@ -282,6 +293,45 @@ void print_row(const std::string& set, const std::string& mode, const std::strin
             << std::fixed << std::setprecision(4) << std::setw(11) << o.median_centre_percent << std::setw(11)
             << o.median_rotation_deg << std::setw(11) << o.median_orientation_deg << std::setprecision(2)
             << std::setw(9) << o.focal_error_percent << std::setprecision(1) << o.seconds << " s\n";
+}
+
+// Median distance (px) between the observations of `tracks` and their points triangulated with
+// `cameras`. Observations in frames without a camera there (not registered) are left out.
+double median_track_error(const pg::TrackSet& tracks, const pg::CameraSet& cameras) {
+  std::vector<pg::Camera> ordered;
+  std::vector<bool> present;
+  for (const pg::TrackFrame& f : tracks.frames) {
+    const pg::Camera* c = cameras.find(f.id);
+    present.push_back(c != nullptr);
+    ordered.push_back(c ? *c : cameras.cameras.front());  // a stand-in no observation uses
+  }
+  pg::TrackSet seen;
+  seen.frames = tracks.frames;
+  for (const pg::Track& t : tracks.tracks) {
+    pg::Track kept;
+    for (const pg::TrackObservation& o : t.observations)
+      if (present[o.frame]) kept.observations.push_back(o);
+    if (kept.observations.size() >= 2) seen.tracks.push_back(std::move(kept));
+  }
+  return pg::track_agreement(seen, ordered).observation_error_px.median;
+}
+
+// How far apart the two tools' cameras are, and how well each camera set (and the truth's) explains
+// each tool's tracks (see the top of this file).
+void print_agreement(const Outcome& ours, const Outcome& theirs, const pg::CameraSet& truth) {
+  if (ours.cameras.cameras.size() < 3 || theirs.cameras.cameras.size() < 3) return;
+  const Outcome between = evaluate(ours.cameras, theirs.cameras, 0);
+  std::cout << std::left << std::setw(42) << "" << std::fixed << std::setprecision(4)
+            << "pg vs colmap: centre " << between.median_centre_percent << "%, rot "
+            << between.median_rotation_deg << " deg\n";
+  for (const auto& [name, tracks] :
+       {std::pair{"pg's", &ours.tracks}, std::pair{"colmap's", &theirs.tracks}}) {
+    if (tracks->tracks.empty()) continue;
+    std::cout << std::left << std::setw(42) << "" << std::setprecision(3) << "median error of " << name
+              << " tracks (px) under the truth " << median_track_error(*tracks, truth) << ", pg "
+              << median_track_error(*tracks, ours.cameras) << ", colmap "
+              << median_track_error(*tracks, theirs.cameras) << "\n";
+  }
 }
 
 }  // namespace
@@ -343,6 +393,7 @@ int main(int argc, char** argv) {
         print_row(d.name, mode, "pg-map", colmap_run.pg_mapper, d.truth.cameras.size());
         print_row(d.name, mode, "pg-map4", colmap_run.pg_mapper_colmap_bounds, d.truth.cameras.size());
       }
+      if (theirs.ran && ours.ran) print_agreement(ours, theirs, d.truth);
       if (theirs.ran && ours.ran)
         std::cout << std::left << std::setw(42) << ""
                   << "time ratio pg/colmap " << std::setprecision(2) << ours.seconds / theirs.seconds
