@@ -242,7 +242,6 @@ int main(int argc, char** argv) {
     co.method = pg::correspondence_method_from_string(o.matcher);
     co.loop_matching = !o.no_loops;
     co.refine_positions = !o.no_refine_positions;
-    co.seed = frame.seed();
     pg::CorrespondenceResult correspondences;
     {
       pg::ScopedTimer timer("correspondences");

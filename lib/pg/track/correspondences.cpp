@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <chrono>
 #include <map>
-#include <memory>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -85,7 +84,6 @@ WorkingFrame load_frame(const SequenceFrame& frame, double downscale) {
 struct SiftMatcher {
   const std::vector<WorkingFrame>& work;
   const std::vector<FrameFeatures>& features;
-  const std::vector<std::unique_ptr<DescriptorIndex>>& indices;
   const CorrespondenceOptions& options;
   std::vector<PointLink>& links;
   std::vector<int> node_offset;  // SIFT features of frame f follow node_offset[f] other points
@@ -106,8 +104,8 @@ struct SiftMatcher {
 
   VerifiedPair match(int a, int b, bool loop, std::vector<PointLink>& out) const {
     const auto t0 = std::chrono::steady_clock::now();
-    const std::vector<FeatureMatch> m = match_indexed(
-        features[a].descriptors, *indices[a], features[b].descriptors, *indices[b], options.ratio, true);
+    const std::vector<FeatureMatch> m =
+        match_descriptors(features[a].descriptors, features[b].descriptors, options.ratio, true);
     std::vector<cv::Point2f> pa, pb;
     for (const FeatureMatch& x : m) {
       pa.push_back(features[a].points[x.a]);
@@ -138,15 +136,22 @@ std::vector<std::pair<int, int>> loop_pairs(const std::vector<FrameFeatures>& fe
   std::vector<FrameFeatures> probes;
   for (const FrameFeatures& f : features)
     probes.push_back(strongest_features(f, options.loop_probe_features));
-  std::vector<std::vector<std::pair<int, int>>> score(n);  // (count, other)
+  std::vector<std::pair<int, int>> probed;
   for (int a = 0; a < n; ++a)
-    for (int b = a + options.sequential_window + 1; b < n; ++b) {
-      const int count = static_cast<int>(
-          match_descriptors(probes[a].descriptors, probes[b].descriptors, options.ratio, true).size());
-      if (count < options.min_loop_probe_matches) continue;
-      score[a].push_back({count, b});
-      score[b].push_back({count, a});
-    }
+    for (int b = a + options.sequential_window + 1; b < n; ++b) probed.push_back({a, b});
+  std::vector<int> counts(probed.size());
+  tbb::parallel_for(std::size_t(0), probed.size(), [&](std::size_t i) {
+    const auto [a, b] = probed[i];
+    counts[i] = static_cast<int>(
+        match_descriptors(probes[a].descriptors, probes[b].descriptors, options.ratio, true).size());
+  });
+  std::vector<std::vector<std::pair<int, int>>> score(n);  // (count, other)
+  for (std::size_t i = 0; i < probed.size(); ++i) {
+    if (counts[i] < options.min_loop_probe_matches) continue;
+    const auto [a, b] = probed[i];
+    score[a].push_back({counts[i], b});
+    score[b].push_back({counts[i], a});
+  }
   std::vector<std::pair<int, int>> chosen;
   for (int a = 0; a < n; ++a) {
     std::sort(score[a].rbegin(), score[a].rend());
@@ -356,10 +361,7 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
       log::debug("sift: ", features[f].points.size(), " features in ", frames[f].id);
     }
     timer.emplace("sift matching");
-    std::vector<std::unique_ptr<DescriptorIndex>> indices;
-    for (const FrameFeatures& f : features)
-      indices.push_back(std::make_unique<DescriptorIndex>(f.descriptors, options.seed));
-    SiftMatcher matcher{work, features, indices, options, links, offset, result.pairs};
+    SiftMatcher matcher{work, features, options, links, offset, result.pairs};
     matcher.match_all(sift_pairs, false);
     if (options.loop_matching) {
       // In KLT modes, every pair beyond consecutive frames is a loop candidate.

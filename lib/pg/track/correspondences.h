@@ -2,7 +2,6 @@
 // Correspondences across an ordered sequence: features, pairwise matching between neighbouring frames
 // and between non-neighbouring frames that overlap (so a ring closes), robust verification, and the
 // merge of pairwise matches into multi-frame tracks.
-#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -44,9 +43,6 @@ struct CorrespondenceOptions {
   KltOptions klt;
   // KLT/Shi-Tomasi: consecutive frames joined by fewer tracks are matched by SIFT as well.
   int klt_min_continued = 150;
-  // Draws the randomised kd-trees of the approximate descriptor matching, the one random choice of
-  // this stage (RANSAC in OpenCV seeds itself). Other seeds give other, equally valid, matches.
-  std::uint64_t seed = 1;
 };
 
 struct SequenceFrame {

@@ -1,12 +1,12 @@
 #include "pg/track/features.h"
 
-#include <opencv2/flann/random.h>
 #include <algorithm>
-#include <mutex>
+#include <limits>
 #include <numeric>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
-#include <opencv2/flann.hpp>
+
+#include "pg/track/descriptor_dots.h"
 
 namespace pg {
 
@@ -66,67 +66,51 @@ FrameFeatures strongest_features(const FrameFeatures& features, int count) {
 std::vector<FeatureMatch> match_descriptors(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
                                             double ratio, bool mutual) {
   std::vector<FeatureMatch> matches;
-  if (descriptors_a.rows < 2 || descriptors_b.rows < 2) return matches;
-  cv::BFMatcher matcher(cv::NORM_L2);
-  std::vector<std::vector<cv::DMatch>> ab, ba;
-  matcher.knnMatch(descriptors_a, descriptors_b, ab, 2);
-  std::vector<int> best_ba;
-  if (mutual) {
-    matcher.knnMatch(descriptors_b, descriptors_a, ba, 1);
-    best_ba.assign(descriptors_b.rows, -1);
-    for (const auto& m : ba)
-      if (!m.empty()) best_ba[m[0].queryIdx] = m[0].trainIdx;
+  const cv::Mat a = descriptors_a.isContinuous() ? descriptors_a : descriptors_a.clone();
+  const cv::Mat b = descriptors_b.isContinuous() ? descriptors_b : descriptors_b.clone();
+  if (a.rows < 2 || b.rows < 2) return matches;
+  const auto squared_norms = [](const cv::Mat& m) {
+    std::vector<float> norms(m.rows);
+    for (int r = 0; r < m.rows; ++r) norms[r] = static_cast<float>(m.row(r).dot(m.row(r)));
+    return norms;
+  };
+  const std::vector<float> norm_a = squared_norms(a), norm_b = squared_norms(b);
+  constexpr float none = std::numeric_limits<float>::max();
+  // Per row of a: its nearest and second-nearest rows of b; per row of b: its nearest row of a. Ties
+  // keep the lower index (tiles are visited in index order, and only a strictly closer row replaces).
+  std::vector<float> first(a.rows, none), second(a.rows, none), nearest_to_b(b.rows, none);
+  std::vector<int> first_index(a.rows, -1), nearest_to_b_index(b.rows, -1);
+  // Tiles sized for the caches: 64 rows of a (32 KiB) against 256 rows of b (128 KiB).
+  constexpr int tile_a = 64, tile_b = 256;
+  std::vector<float> dots(static_cast<std::size_t>(tile_a) * tile_b);
+  for (int i0 = 0; i0 < a.rows; i0 += tile_a) {
+    const int rows_a = std::min(tile_a, a.rows - i0);
+    for (int j0 = 0; j0 < b.rows; j0 += tile_b) {
+      const int rows_b = std::min(tile_b, b.rows - j0);
+      descriptor_dots(a.ptr<float>(i0), rows_a, b.ptr<float>(j0), rows_b, a.cols, dots.data(), tile_b);
+      for (int i = 0; i < rows_a; ++i) {
+        const float* row = dots.data() + static_cast<std::size_t>(i) * tile_b;
+        const float na = norm_a[i0 + i];
+        float d1 = first[i0 + i], d2 = second[i0 + i];
+        int j1 = first_index[i0 + i];
+        for (int j = 0; j < rows_b; ++j) {
+          const float d = std::max(0.0f, na + norm_b[j0 + j] - 2 * row[j]);  // squared distance
+          if (d < d1) {
+            d2 = d1, d1 = d, j1 = j0 + j;
+          } else if (d < d2) {
+            d2 = d;
+          }
+          if (d < nearest_to_b[j0 + j]) nearest_to_b[j0 + j] = d, nearest_to_b_index[j0 + j] = i0 + i;
+        }
+        first[i0 + i] = d1, second[i0 + i] = d2, first_index[i0 + i] = j1;
+      }
+    }
   }
-  for (const auto& m : ab) {
-    if (m.size() < 2 || m[0].distance >= ratio * m[1].distance) continue;
-    if (mutual && best_ba[m[0].trainIdx] != m[0].queryIdx) continue;
-    matches.push_back({m[0].queryIdx, m[0].trainIdx});
-  }
-  return matches;
-}
-
-struct DescriptorIndex::Impl {
-  cv::Mat data;  // the index keeps a reference to its data
-  cv::flann::Index index;
-};
-
-DescriptorIndex::DescriptorIndex(const cv::Mat& descriptors, std::uint64_t seed)
-    : impl_(new Impl), rows_(descriptors.rows) {
-  impl_->data = descriptors.clone();
-  if (rows_ < 2) return;
-  // The randomised trees draw from the C library's rand(): seeding it per build (under a lock, the
-  // state is global) makes every index, hence every match, independent of what ran before. Seed 1
-  // keeps the stream every earlier release used.
-  const std::uint64_t mixed = (seed - 1) * 0x9e3779b97f4a7c15ull;
-  static std::mutex rand_mutex;
-  const std::lock_guard lock(rand_mutex);
-  cvflann::seed_random(0x9e3779b9u ^ static_cast<unsigned>(mixed ^ (mixed >> 32)));
-  impl_->index.build(impl_->data, cv::flann::KDTreeIndexParams(4), cvflann::FLANN_DIST_L2);
-}
-
-DescriptorIndex::~DescriptorIndex() {
-  delete impl_;
-}
-
-void DescriptorIndex::nearest_two(const cv::Mat& queries, cv::Mat& indices,
-                                  cv::Mat& squared_distances) const {
-  impl_->index.knnSearch(queries, indices, squared_distances, 2, cv::flann::SearchParams(64));
-}
-
-std::vector<FeatureMatch> match_indexed(const cv::Mat& descriptors_a, const DescriptorIndex& index_a,
-                                        const cv::Mat& descriptors_b, const DescriptorIndex& index_b,
-                                        double ratio, bool mutual) {
-  std::vector<FeatureMatch> matches;
-  if (index_a.size() < 2 || index_b.size() < 2) return matches;
-  cv::Mat ab_index, ab_dist, ba_index, ba_dist;
-  index_b.nearest_two(descriptors_a, ab_index, ab_dist);
-  if (mutual) index_a.nearest_two(descriptors_b, ba_index, ba_dist);
   const float ratio2 = static_cast<float>(ratio * ratio);  // distances are squared
-  for (int i = 0; i < descriptors_a.rows; ++i) {
-    const int j = ab_index.at<int>(i, 0);
-    if (j < 0 || j >= descriptors_b.rows || !(ab_dist.at<float>(i, 0) < ratio2 * ab_dist.at<float>(i, 1)))
-      continue;
-    if (mutual && ba_index.at<int>(j, 0) != i) continue;
+  for (int i = 0; i < a.rows; ++i) {
+    const int j = first_index[i];
+    if (j < 0 || !(first[i] < ratio2 * second[i])) continue;
+    if (mutual && nearest_to_b_index[j] != i) continue;
     matches.push_back({i, j});
   }
   return matches;

@@ -1,7 +1,6 @@
 #pragma once
 // Local features of one frame: SIFT keypoints with RootSIFT descriptors, descriptor matching with the
 // ratio test and a mutual check, and robust two-view verification by a fundamental matrix.
-#include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -34,33 +33,10 @@ struct FeatureMatch {
 };
 
 // Nearest-neighbour matches a -> b that pass Lowe's ratio test and, with `mutual`, whose match b -> a
-// is the same pair.
+// is the same pair. Exhaustive and exact (every pair of descriptors is compared, as COLMAP does), so
+// the matches are a function of the descriptors alone. Descriptors are CV_32F rows.
 std::vector<FeatureMatch> match_descriptors(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
                                             double ratio = 0.8, bool mutual = true);
-
-// Approximate nearest neighbours over one frame's descriptors (randomised kd-trees, FLANN): built once
-// per frame, queried by every pair the frame takes part in. `seed` draws the trees: the same seed
-// gives the same index, and so the same matches.
-class DescriptorIndex {
- public:
-  explicit DescriptorIndex(const cv::Mat& descriptors, std::uint64_t seed = 1);
-  ~DescriptorIndex();
-  DescriptorIndex(const DescriptorIndex&) = delete;
-  DescriptorIndex& operator=(const DescriptorIndex&) = delete;
-  // Two nearest neighbours of each query row: CV_32S indices and CV_32F squared distances (n x 2).
-  void nearest_two(const cv::Mat& queries, cv::Mat& indices, cv::Mat& squared_distances) const;
-  int size() const { return rows_; }
-
- private:
-  struct Impl;
-  Impl* impl_;
-  int rows_;
-};
-
-// As match_descriptors, through the frames' indices (much faster for thousands of features).
-std::vector<FeatureMatch> match_indexed(const cv::Mat& descriptors_a, const DescriptorIndex& index_a,
-                                        const cv::Mat& descriptors_b, const DescriptorIndex& index_b,
-                                        double ratio = 0.8, bool mutual = true);
 
 // Inlier flags of a RANSAC fundamental matrix (Sampson distance below threshold_px). All false when
 // fewer than 8 pairs or no model is found.
