@@ -25,12 +25,26 @@ struct Scene {
   TrackSet tracks;
 };
 
+// Tracks of every point that two or more cameras see: its projections plus Gaussian noise.
+void add_noisy_tracks(Scene& s, double noise_px, std::mt19937& rng) {
+  std::normal_distribution<double> noise(0, noise_px);
+  for (const Eigen::Vector3d& X : s.points) {
+    Track t;
+    for (int v = 0; v < static_cast<int>(s.cameras.size()); ++v) {
+      Eigen::Vector2d px;
+      if (!s.cameras[v].project_world(X, px) || !s.cameras[v].in_image(px, 2)) continue;
+      t.observations.push_back(
+          {v, static_cast<float>(px.x() + noise(rng)), static_cast<float>(px.y() + noise(rng))});
+    }
+    if (t.observations.size() >= 2) s.tracks.tracks.push_back(t);
+  }
+}
+
 Scene orbit_scene(int views, double noise_px, unsigned seed, bool ring_step_deg_large = false,
                   Eigen::Vector2d principal_point = {319.5, 239.5}) {
   Scene s;
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1, 1);
-  std::normal_distribution<double> noise(0, noise_px);
   for (int i = 0; i < 1500; ++i) s.points.push_back({u(rng), u(rng), 0.5 * u(rng)});
   const double step = ring_step_deg_large ? 2 * std::numbers::pi / views : 0.15;
   for (int v = 0; v < views; ++v) {
@@ -46,16 +60,7 @@ Scene orbit_scene(int views, double noise_px, unsigned seed, bool ring_step_deg_
     s.cameras.push_back(c);
     s.tracks.frames.push_back({c.id, c.image, c.width, c.height});
   }
-  for (const Eigen::Vector3d& X : s.points) {
-    Track t;
-    for (int v = 0; v < views; ++v) {
-      Eigen::Vector2d px;
-      if (!s.cameras[v].project_world(X, px) || !s.cameras[v].in_image(px, 2)) continue;
-      t.observations.push_back(
-          {v, static_cast<float>(px.x() + noise(rng)), static_cast<float>(px.y() + noise(rng))});
-    }
-    if (t.observations.size() >= 2) s.tracks.tracks.push_back(t);
-  }
+  add_noisy_tracks(s, noise_px, rng);
   return s;
 }
 
@@ -90,7 +95,6 @@ TEST(Sfm, RecoversCamerasLookingAtAPlane) {
   for (unsigned seed = 1; seed <= 6; ++seed) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> u(-1, 1);
-    std::normal_distribution<double> noise(0, 0.2);
     Scene s;
     for (int i = 0; i < 600; ++i) s.points.push_back({1.5 * u(rng), u(rng), 0});
     for (int v = 0; v < 8; ++v) {
@@ -107,16 +111,7 @@ TEST(Sfm, RecoversCamerasLookingAtAPlane) {
       s.cameras.push_back(c);
       s.tracks.frames.push_back({c.id, c.image, c.width, c.height});
     }
-    for (const Eigen::Vector3d& X : s.points) {
-      Track t;
-      for (int v = 0; v < 8; ++v) {
-        Eigen::Vector2d px;
-        if (!s.cameras[v].project_world(X, px) || !s.cameras[v].in_image(px, 2)) continue;
-        t.observations.push_back(
-            {v, static_cast<float>(px.x() + noise(rng)), static_cast<float>(px.y() + noise(rng))});
-      }
-      if (t.observations.size() >= 2) s.tracks.tracks.push_back(t);
-    }
+    add_noisy_tracks(s, 0.2, rng);
     SfmOptions options;
     options.shared_intrinsics = false;
     options.refine_focal = false;
