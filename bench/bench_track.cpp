@@ -393,15 +393,15 @@ int main(int argc, char** argv) {
         print_row(d.name, mode, "pg-map", colmap_run.pg_mapper, d.truth.cameras.size());
         print_row(d.name, mode, "pg-map4", colmap_run.pg_mapper_colmap_bounds, d.truth.cameras.size());
       }
-      if (theirs.ran && ours.ran) print_agreement(ours, theirs, d.truth);
-      if (theirs.ran && ours.ran)
-        std::cout << std::left << std::setw(42) << ""
-                  << "time ratio pg/colmap " << std::setprecision(2) << ours.seconds / theirs.seconds
-                  << ", centre error ratio "
-                  << (theirs.median_centre_percent > 0
-                          ? ours.median_centre_percent / theirs.median_centre_percent
-                          : 0)
-                  << "\n";
+      if (!theirs.ran || !ours.ran) continue;
+      print_agreement(ours, theirs, d.truth);
+      std::cout << std::left << std::setw(42) << ""
+                << "time ratio pg/colmap " << std::setprecision(2) << ours.seconds / theirs.seconds
+                << ", centre error ratio "
+                << (theirs.median_centre_percent > 0
+                        ? ours.median_centre_percent / theirs.median_centre_percent
+                        : 0)
+                << "\n";
     }
   return 0;
 }

@@ -595,7 +595,7 @@ class Mapper {
   bool register_frame(int f, int min_inliers) {
     std::vector<cv::Point3d> object;
     std::vector<cv::Point2d> image;
-    std::vector<int> which;  // track per correspondence
+    std::vector<Eigen::Vector2d> pixels;  // the observed pixel of each correspondence
     for (const auto& [t, k] : frame_obs_[f]) {
       const int p = track_point_[t];
       if (p < 0) continue;
@@ -603,7 +603,7 @@ class Mapper {
       const Eigen::Vector3d r = ray(f, obs_[t][k].pixel);
       object.push_back({X.x(), X.y(), X.z()});
       image.push_back({r.x(), r.y()});
-      which.push_back(t);
+      pixels.push_back(obs_[t][k].pixel);
     }
     if (static_cast<int>(object.size()) < min_inliers) return false;
     cv::Mat rvec, tvec;
@@ -615,45 +615,36 @@ class Mapper {
     std::vector<cv::Point3d> object_in;
     std::vector<cv::Point2d> image_in;
     for (int i : inliers) object_in.push_back(object[i]), image_in.push_back(image[i]);
+    const auto point = [&](std::size_t i) { return Eigen::Vector3d(object[i].x, object[i].y, object[i].z); };
     // solvePnPRansac returns a pose re-estimated from all its inliers (by EPnP for the P3P kernels),
     // which can be far off on a plane seen at a grazing angle: on a checkerboard scene most of 38
     // inliers fell outside the bound, and refinement from there ended 58 degrees out with 20. SQPnP's
     // globally optimal estimate is a second candidate; each is refined, and the one that fits the
-    // inliers better is kept, scored as MSAC does (squared error truncated at the bound, a point behind
-    // the camera counting as the bound).
-    const double thr2 = thr * thr;
-    const auto truncated_error = [&](const cv::Mat& r, const cv::Mat& t) {
-      cv::Matx33d R;
-      cv::Rodrigues(r, R);
-      const cv::Vec3d shift(t.at<double>(0), t.at<double>(1), t.at<double>(2));
-      double sum = 0;
-      for (std::size_t i = 0; i < object_in.size(); ++i) {
-        const cv::Vec3d x = R * cv::Vec3d(object_in[i].x, object_in[i].y, object_in[i].z) + shift;
-        const double dx = x[0] / x[2] - image_in[i].x, dy = x[1] / x[2] - image_in[i].y;
-        sum += x[2] > 0 ? std::min(dx * dx + dy * dy, thr2) : thr2;
-      }
-      return sum;
-    };
+    // inliers better is kept, scored as MSAC does (squared reprojection error truncated at the bound;
+    // a point behind the camera counts as the bound).
+    const double bound2 = threshold() * threshold();
     cv::Mat global_r, global_t;
     std::vector<std::pair<cv::Mat, cv::Mat>> candidates{{rvec, tvec}};
     if (cv::solvePnP(object_in, image_in, cv::Mat::eye(3, 3, CV_64F), cv::noArray(), global_r, global_t,
                      false, cv::SOLVEPNP_SQPNP))
       candidates.push_back({global_r, global_t});
     double best = std::numeric_limits<double>::infinity();
+    PoseParams best_pose{};
     for (auto& [r, t] : candidates) {
       cv::solvePnPRefineLM(object_in, image_in, cv::Mat::eye(3, 3, CV_64F), cv::noArray(), r, t);
-      const double error = truncated_error(r, t);
-      if (error < best) best = error, rvec = r, tvec = t;
+      poses_[f] = {r.at<double>(0), r.at<double>(1), r.at<double>(2),
+                   t.at<double>(0), t.at<double>(1), t.at<double>(2)};
+      double score = 0;
+      for (int i : inliers) {
+        const double e = reprojection_error(f, point(i), pixels[i]);
+        score += std::min(e * e, bound2);
+      }
+      if (score < best) best = score, best_pose = poses_[f];
     }
-    poses_[f] = {rvec.at<double>(0), rvec.at<double>(1), rvec.at<double>(2),
-                 tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)};
+    poses_[f] = best_pose;
     int count = 0;
-    for (std::size_t i = 0; i < object.size(); ++i) {
-      const Eigen::Vector3d X(object[i].x, object[i].y, object[i].z);
-      const int t = which[i];
-      for (const Obs& o : obs_[t])
-        if (o.frame == f && reprojection_error(f, X, o.pixel) < threshold()) ++count;
-    }
+    for (std::size_t i = 0; i < object.size(); ++i)
+      if (reprojection_error(f, point(i), pixels[i]) < threshold()) ++count;
     log::debug("sfm: frame ", tracks_.frames[f].id, ": ", object.size(), " 2D-3D, ", count, " inliers");
     return count >= min_inliers;
   }
