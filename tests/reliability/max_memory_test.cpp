@@ -19,7 +19,8 @@ class MaxMemoryOfLargeStages : public ::testing::TestWithParam<StageRun> {};
 std::vector<StageRun> stages_that_can_blow_up() {
   std::vector<StageRun> runs;
   for (const StageRun& run : pg::reliability::stage_runs())
-    if (run.name == "depth" || run.name == "merge" || run.name == "refine" || run.name == "sphdepth")
+    if (run.name == "depth" || run.name == "merge" || run.name == "refine" || run.name == "sphdepth" ||
+        run.name == "track")
       runs.push_back(run);
   return runs;
 }
@@ -27,8 +28,9 @@ std::vector<StageRun> stages_that_can_blow_up() {
 TEST_P(MaxMemoryOfLargeStages, TinyBudgetFailsEarlyWithExitCodeFiveAndNoOutputs) {
   const StageRun& stage = GetParam();
   // Each estimates its working set before allocating it (merge: the grids; depth: a pair's flow from
-  // its cameras; refine: the mesh's and the views' buffers), so the address-space backstop of the CLI
-  // frame (budget + per-thread reserve) is never what stops them.
+  // its cameras; refine: the mesh's and the views' buffers; track: the frames and one SIFT detection,
+  // from the image headers), so the address-space backstop of the CLI frame (budget + per-thread
+  // reserve) is never what stops them.
   pg::testing::TempDir dir;
   std::string err;
   const int code =

@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "pg/camera/cameras_io.h"
+#include "pg/core/json_file.h"
 #include "pg/eval/camera_eval.h"
 #include "pg/eval/orientation_error.h"
 #include "pg/mesh/point_cloud.h"
@@ -125,6 +126,20 @@ TEST_F(PgTrack, TheOutlierBoundFollowsTheNoiseUnlessHeld) {
   EXPECT_LT(rotation["10"], 0.6 * rotation["0"]);
 }
 
+// The two runs' cameras, points and tracks have the same bytes (pg-info digest leaves provenance out).
+void expect_same_outputs(const TempDir& a, const TempDir& b) {
+  for (const char* name : {"cameras.json", "points.ply", "tracks.json"}) {
+    const auto digest = [&](const TempDir& dir) {
+      const auto r = run_tool("pg-info", {"digest", (dir / name).string()});
+      EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
+      return r.stdout_text.substr(0, r.stdout_text.find(' '));
+    };
+    const std::string da = digest(a), db = digest(b);
+    EXPECT_EQ(da.size(), 64u) << name;
+    EXPECT_EQ(da, db) << name;
+  }
+}
+
 // Same inputs and options, one worker thread instead of all: the same bytes (without provenance).
 TEST_F(PgTrack, OutputsDoNotDependOnTheThreadCount) {
   TempDir one, all;
@@ -133,16 +148,27 @@ TEST_F(PgTrack, OutputsDoNotDependOnTheThreadCount) {
                                          dir->path().string(), "--threads", threads});
     ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
   }
-  for (const char* name : {"cameras.json", "points.ply", "tracks.json"}) {
-    const auto digest = [&](const TempDir& dir) {
-      const auto r = run_tool("pg-info", {"digest", (dir / name).string()});
-      EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
-      return r.stdout_text.substr(0, r.stdout_text.find(' '));
-    };
-    const std::string a = digest(one), b = digest(all);
-    EXPECT_EQ(a.size(), 64u) << name;
-    EXPECT_EQ(a, b) << name;
-  }
+  expect_same_outputs(one, all);
+}
+
+// --max-memory with room for one SIFT detection at a time on two threads: a 640x480 frame's scale
+// space takes about 73 MiB, beside 35 MiB for the eight frames and their features. The detections run
+// one by one instead of two at once, and the outputs are the same.
+TEST_F(PgTrack, AMemoryBudgetRunsOneDetectionAtATimeWithTheSameOutputs) {
+  // Runs pg-track into `dir` and returns how many detections its report says ran at once.
+  const auto detections_at_once = [&](const TempDir& dir, std::vector<std::string> extra) {
+    std::vector<std::string> args = {"--images", (scene() / "images").string(), "--range",   "0:8",
+                                     "--out",    dir.path().string(),           "--threads", "2",
+                                     "--report", (dir / "report.json").string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto r = run_tool("pg-track", args);
+    EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
+    return pg::read_json_file(dir / "report.json")["metrics"]["sift_detections_at_once"].get<int>();
+  };
+  TempDir free, budget;
+  EXPECT_EQ(detections_at_once(free, {}), 2);
+  EXPECT_EQ(detections_at_once(budget, {"--max-memory", "140M"}), 1);
+  expect_same_outputs(free, budget);
 }
 
 // pg-track makes no random choice (descriptor matching is exhaustive, OpenCV's RANSAC seeds itself):

@@ -242,6 +242,11 @@ int main(int argc, char** argv) {
     co.method = pg::correspondence_method_from_string(o.matcher);
     co.loop_matching = !o.no_loops;
     co.refine_positions = !o.no_refine_positions;
+    co.memory_budget = pg::cli::memory_budget();
+    // Before any image is decoded: a budget too small for the frames held and one SIFT detection.
+    pg::cli::require_memory(pg::correspondence_memory_bytes(frames, co),
+                            pg::str("tracking ", frames.size(), " images",
+                                    co.downscale > 1 ? pg::str(" at --downscale ", co.downscale) : ""));
     pg::CorrespondenceResult correspondences;
     {
       pg::ScopedTimer timer("correspondences");

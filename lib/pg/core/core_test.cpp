@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -13,6 +14,7 @@
 #include "pg/core/parallel.h"
 #include "pg/core/provenance.h"
 #include "pg/core/run_report.h"
+#include "pg/core/system_memory.h"
 #include "pg/testing/testing.h"
 
 namespace fs = std::filesystem;
@@ -137,3 +139,16 @@ TEST(RunReport, HasProvenanceHashesAndMemory) {
   EXPECT_GT(j["peak_memory_bytes"].get<std::uint64_t>(), 0u);
   r.reset();
 }
+
+namespace {
+
+// Linux reports what it can hand out; it is never more than the machine has.
+TEST(SystemMemory, AvailableIsKnownAndWithinThePhysicalMemory) {
+  const std::uint64_t physical =
+      std::uint64_t(::sysconf(_SC_PHYS_PAGES)) * std::uint64_t(::sysconf(_SC_PAGESIZE));
+  const std::uint64_t available = pg::available_memory_bytes();
+  EXPECT_GT(available, std::uint64_t{16} << 20);
+  EXPECT_LE(available, physical);
+}
+
+}  // namespace

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "pg/flow/flow_memory.h"
+#include "pg/image/image_io.h"
 #include "pg/image/pyramid.h"
 
 namespace {

@@ -1,8 +1,6 @@
 #include "pg/flow/flow_memory.h"
 
 #include <algorithm>
-#include <cctype>
-#include <string>
 #include <vector>
 
 #include "pg/image/pyramid.h"
@@ -54,15 +52,6 @@ std::uint64_t bidirectional_flow_memory_bytes(cv::Size size, int channels, const
                                               bool epipolar) {
   return flow_memory_bytes(size, channels, options, epipolar) +
          float_bytes * held_forward_flow_planes * pixels(size);
-}
-
-std::uint64_t decoded_image_bytes_per_pixel(const std::filesystem::path& path) {
-  std::string extension = path.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
-  if (extension == ".jpg" || extension == ".jpeg") return 3;
-  if (extension == ".png") return 8;
-  return 16;
 }
 
 }  // namespace pg

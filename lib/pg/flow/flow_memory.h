@@ -4,7 +4,6 @@
 // allocating anything. The counts below are the cv::Mat1f planes (one float per pixel) the code in
 // flow.cpp and level_solver.cpp holds at once; keep them in step with it.
 #include <cstdint>
-#include <filesystem>
 #include <opencv2/core.hpp>
 
 #include "pg/flow/flow.h"
@@ -49,10 +48,5 @@ std::uint64_t flow_memory_bytes(cv::Size size, int channels, const FlowOptions& 
 // one after the other, the forward result held during the second.
 std::uint64_t bidirectional_flow_memory_bytes(cv::Size size, int channels, const FlowOptions& options,
                                               bool epipolar);
-
-// Bound on the bytes per pixel of an image decoded by read_image (ReadMode::unchanged), from its file
-// type, for estimates made before decoding: JPEG 3 (8-bit, at most 3 channels), PNG 8 (up to 16-bit
-// RGBA), anything else 16 (float RGBA: EXR, HDR, TIFF).
-std::uint64_t decoded_image_bytes_per_pixel(const std::filesystem::path& path);
 
 }  // namespace pg

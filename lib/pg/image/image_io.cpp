@@ -326,4 +326,13 @@ cv::Mat to_float_color(const cv::Mat& image) {
   }
 }
 
+std::uint64_t decoded_image_bytes_per_pixel(const std::filesystem::path& path) {
+  std::string extension = path.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+  if (extension == ".jpg" || extension == ".jpeg") return 3;
+  if (extension == ".png") return 8;
+  return 16;
+}
+
 }  // namespace pg

@@ -30,6 +30,11 @@ cv::Mat read_image(const std::filesystem::path& path, ReadMode mode = ReadMode::
 // .hdr. nullopt for other formats. Throws InputError if the file is missing or its header is corrupt.
 std::optional<cv::Size> peek_image_size(const std::filesystem::path& path);
 
+// Bound on the bytes per pixel of an image decoded by read_image (ReadMode::unchanged), from its file
+// type, for estimates made before decoding: JPEG 3 (8-bit, at most 3 channels), PNG 8 (up to 16-bit
+// RGBA), anything else 16 (float RGBA: EXR, HDR, TIFF).
+std::uint64_t decoded_image_bytes_per_pixel(const std::filesystem::path& path);
+
 // Writes atomically; the codec follows the extension: .png (8/16-bit), .jpg/.jpeg (8-bit),
 // .exr (float; ZIP compressed, channels Y, or B G R [A]), .hdr (float, 3 channels), .tif/.tiff.
 // A depth the codec cannot store throws OutputError (no silent rescaling).

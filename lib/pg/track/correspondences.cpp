@@ -1,8 +1,10 @@
 #include "pg/track/correspondences.h"
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <map>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
@@ -10,7 +12,9 @@
 
 #include "pg/core/error.h"
 #include "pg/core/log.h"
+#include "pg/core/parallel.h"
 #include "pg/core/run_report.h"
+#include "pg/core/system_memory.h"
 #include "pg/image/image_io.h"
 #include "pg/track/features.h"
 
@@ -50,6 +54,13 @@ struct WorkingFrame {
   }
 };
 
+// The size of the working image of a `full`-size image shrunk by `downscale`.
+cv::Size working_size(cv::Size full, double downscale) {
+  if (downscale <= 1) return full;
+  return {std::max(1, static_cast<int>(std::lround(full.width / downscale))),
+          std::max(1, static_cast<int>(std::lround(full.height / downscale)))};
+}
+
 WorkingFrame load_frame(const SequenceFrame& frame, double downscale) {
   WorkingFrame w;
   cv::Mat gray = read_image(frame.image, ReadMode::gray_float);
@@ -65,8 +76,7 @@ WorkingFrame load_frame(const SequenceFrame& frame, double downscale) {
     w.mask = m8;
   }
   if (downscale > 1) {
-    const cv::Size size(std::max(1, static_cast<int>(std::lround(gray.cols / downscale))),
-                        std::max(1, static_cast<int>(std::lround(gray.rows / downscale))));
+    const cv::Size size = working_size(gray.size(), downscale);
     cv::Mat small;
     cv::resize(w.gray8, small, size, 0, 0, cv::INTER_AREA);
     w.gray8 = small;
@@ -79,6 +89,59 @@ WorkingFrame load_frame(const SequenceFrame& frame, double downscale) {
     w.scale_y = static_cast<double>(gray.rows) / size.height;
   }
   return w;
+}
+
+// What one frame costs in memory, from its file headers: what build_correspondences keeps (the 8-bit
+// working image and mask, and the most features detect_sift keeps), what load_frame holds while decoding it
+// (the file decoded, its float grey and its 8-bit copy, and the same for a mask), and one SIFT detection on
+// it. Zero when the image's header cannot be read.
+struct FrameMemory {
+  std::uint64_t held = 0, load = 0, detection = 0;
+};
+
+FrameMemory frame_memory(const SequenceFrame& frame, const CorrespondenceOptions& options) {
+  const std::optional<cv::Size> full = peek_image_size(frame.image);
+  if (!full) return {};
+  const bool masked = !frame.mask.empty();
+  const cv::Size working = working_size(*full, options.downscale);
+  const std::uint64_t decoded = decoded_image_bytes_per_pixel(frame.image) + sizeof(float) + 1;
+  FrameMemory m;
+  m.held = std::uint64_t(working.area()) * (masked ? 2 : 1) + options.max_features * sift_feature_bytes;
+  m.load = std::uint64_t(full->area()) * decoded * (masked ? 2 : 1);
+  m.detection = sift_detection_bytes(working);
+  return m;
+}
+
+// The frames together: every frame's held bytes, and the largest decode and detection among them.
+FrameMemory frames_memory(const std::vector<SequenceFrame>& frames, const CorrespondenceOptions& options) {
+  FrameMemory total;
+  for (const SequenceFrame& frame : frames) {
+    const FrameMemory m = frame_memory(frame, options);
+    total.held += m.held;
+    total.load = std::max(total.load, m.load);
+    total.detection = std::max(total.detection, m.detection);
+  }
+  return total;
+}
+
+// How many tasks of `task_bytes` fit in what `budget` leaves beside `held`: at least one, at most `n`
+// (every one when the budget is unknown, 0).
+int tasks_that_fit(std::uint64_t budget, std::uint64_t held, std::uint64_t task_bytes, int n) {
+  if (budget == 0 || task_bytes == 0) return n;
+  const std::uint64_t free = budget > held ? budget - held : 0;
+  return static_cast<int>(std::clamp<std::uint64_t>(free / task_bytes, 1, std::max(1, n)));
+}
+
+// body(i) for every i in [0, n), at most `at_once` of them running at a time; the rest of the threads
+// stay free for the loops inside body (OpenCV's own, which run on TBB too).
+void bounded_parallel_for(int n, int at_once, const std::function<void(int)>& body) {
+  int next = 0;
+  tbb::parallel_pipeline(
+      static_cast<std::size_t>(std::max(1, at_once)),
+      tbb::make_filter<void, int>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control& control) {
+        if (next == n) control.stop();
+        return next < n ? next++ : 0;
+      }) & tbb::make_filter<int, void>(tbb::filter_mode::parallel, [&](int i) { body(i); }));
 }
 
 struct SiftMatcher {
@@ -294,13 +357,22 @@ int enforce_track_consistency(std::vector<Track>& tracks, const std::vector<Veri
   return removed;
 }
 
+std::uint64_t correspondence_memory_bytes(const std::vector<SequenceFrame>& frames,
+                                          const CorrespondenceOptions& options) {
+  const FrameMemory m = frames_memory(frames, options);
+  return m.held + std::max(m.load, m.detection);
+}
+
 CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& frames,
                                            const CorrespondenceOptions& options) {
   if (frames.size() < 2) throw UsageError(str("tracking needs at least 2 images, got ", frames.size()));
   if (options.downscale < 1) throw UsageError("downscale must be at least 1");
   const int n = static_cast<int>(frames.size());
+  const std::uint64_t budget = options.memory_budget ? options.memory_budget : available_memory_bytes();
+  const FrameMemory planned = frames_memory(frames, options);
   std::vector<WorkingFrame> work(n);
-  tbb::parallel_for(0, n, [&](int f) { work[f] = load_frame(frames[f], options.downscale); });
+  bounded_parallel_for(n, tasks_that_fit(budget, planned.held, planned.load, std::min(n, thread_count())),
+                       [&](int f) { work[f] = load_frame(frames[f], options.downscale); });
 
   CorrespondenceResult result;
   result.tracks.method = to_string(options.method);
@@ -350,7 +422,19 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
     std::vector<FrameFeatures> features(n);
     std::vector<int> offset(n);
     std::optional<ScopedTimer> timer(std::in_place, "sift features");
-    tbb::parallel_for(0, n, [&](int f) {
+    std::uint64_t held = 0, detection = 0;
+    for (const WorkingFrame& w : work) {
+      held += w.gray8.total() + w.mask.total() + options.max_features * sift_feature_bytes;
+      detection = std::max(detection, sift_detection_bytes(w.gray8.size()));
+    }
+    const int most = std::min(n, thread_count());
+    const int at_once = tasks_that_fit(budget, held, detection, most);
+    RunReport::global().set_metric("sift_detections_at_once", at_once);
+    if (at_once < most)
+      log::info("sift: memory allows ", at_once, " detection", at_once > 1 ? "s" : "", " at a time (",
+                detection >> 20, " MiB each, ", held >> 20, " MiB of images and features held, budget ",
+                budget >> 20, " MiB)");
+    bounded_parallel_for(n, at_once, [&](int f) {
       features[f] =
           detect_sift(work[f].gray8, work[f].mask, klt ? options.max_features / 2 : options.max_features);
     });

@@ -2,6 +2,7 @@
 // Correspondences across an ordered sequence: features, pairwise matching between neighbouring frames
 // and between non-neighbouring frames that overlap (so a ring closes), robust verification, and the
 // merge of pairwise matches into multi-frame tracks.
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -43,6 +44,11 @@ struct CorrespondenceOptions {
   KltOptions klt;
   // KLT/Shi-Tomasi: consecutive frames joined by fewer tracks are matched by SIFT as well.
   int klt_min_continued = 150;
+  // Bytes build_correspondences may hold (a --max-memory budget); 0: none given, and the memory the
+  // system has available bounds it instead. Frames are decoded and SIFT detections run (each
+  // sift_detection_bytes, about 250 bytes a working pixel) at most as many at a time as fit beside the
+  // working images held, and at least one. The results do not depend on it.
+  std::uint64_t memory_budget = 0;
 };
 
 struct SequenceFrame {
@@ -66,6 +72,12 @@ struct CorrespondenceResult {
   int inconsistent_observations = 0;   // removed by the three-view consistency check
   PositionRefinementStats refinement;  // zero when refinement is off
 };
+
+// The least memory build_correspondences needs for `frames`, from their file headers: the working
+// images it holds, and one frame being decoded or one SIFT detection. Frames whose header pg cannot
+// read (peek_image_size) are left out. Throws InputError for a missing or corrupt file.
+std::uint64_t correspondence_memory_bytes(const std::vector<SequenceFrame>& frames,
+                                          const CorrespondenceOptions& options);
 
 // Throws InputError for unreadable images or masks of a different size than their image,
 // UsageError for fewer than 2 frames.

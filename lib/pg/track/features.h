@@ -1,6 +1,7 @@
 #pragma once
 // Local features of one frame: SIFT keypoints with RootSIFT descriptors, descriptor matching with the
 // ratio test and a mutual check, and robust two-view verification by a fundamental matrix.
+#include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -24,6 +25,16 @@ struct FrameFeatures {
 // most max_features, the strongest first.
 FrameFeatures detect_sift(const cv::Mat& gray8, const cv::Mat& mask, int max_features,
                           double contrast_threshold = 0.02);
+
+// Bytes detect_sift holds while it runs on a `size` image: OpenCV's scale space on the doubled image,
+// 6 Gaussian and 5 difference-of-Gaussian float levels an octave, the octaves together 4/3 of the
+// first: about 235 bytes a pixel, and a sixteenth more for the rest. build_correspondences runs only
+// as many detections at once as memory allows.
+std::uint64_t sift_detection_bytes(cv::Size size);
+
+// Bytes FrameFeatures holds a feature: its descriptor, point, shape and response.
+inline constexpr std::uint64_t sift_feature_bytes =
+    128 * sizeof(float) + sizeof(cv::Point2f) + sizeof(PointShape) + sizeof(float);
 
 // The `count` strongest features (all when count >= size).
 FrameFeatures strongest_features(const FrameFeatures& features, int count);

@@ -1,8 +1,13 @@
 #include <gtest/gtest.h>
+#include <malloc.h>
 
+#include <fstream>
 #include <opencv2/features2d.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <sstream>
+#include <string>
 #include <tuple>
 
 #include "pg/camera/camera.h"
@@ -277,6 +282,71 @@ TEST(Features, DescriptorDotsAreExactToFloatRounding) {
       }
     }
   }
+}
+
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool address_sanitizer = true;
+#elif defined(__has_feature)
+constexpr bool address_sanitizer = __has_feature(address_sanitizer);
+#else
+constexpr bool address_sanitizer = false;
+#endif
+
+// The process's resident memory and its high-water mark (/proc/self/status), bytes.
+std::pair<std::uint64_t, std::uint64_t> resident_and_peak() {
+  std::ifstream status("/proc/self/status");
+  std::uint64_t resident = 0, peak = 0;
+  for (std::string line; std::getline(status, line);) {
+    std::istringstream fields(line.substr(line.find(':') + 1));
+    if (line.rfind("VmRSS:", 0) == 0) fields >> resident;
+    if (line.rfind("VmHWM:", 0) == 0) fields >> peak;
+  }
+  return {resident * 1024, peak * 1024};
+}
+
+// build_correspondences runs as many detections at once as sift_detection_bytes lets fit in memory:
+// the estimate must cover what a detection takes, and not by so much that it wastes the budget.
+TEST(Features, SiftDetectionBytesCoverWhatADetectionTakes) {
+  if (address_sanitizer)
+    GTEST_SKIP() << "AddressSanitizer's shadow memory and redzones add to every allocation";
+  const cv::Mat image = blurred_noise(cv::Size(1600, 1200), 3);
+  // Memory earlier tests freed goes back to the system, so the detection's allocations are all new
+  // pages; then writing 5 to clear_refs resets the high-water mark to the resident size (Linux 4.0+).
+  ::malloc_trim(0);
+  std::ofstream("/proc/self/clear_refs") << "5";
+  const auto [resident, peak_before] = resident_and_peak();
+  if (peak_before > resident + (std::uint64_t{16} << 20)) GTEST_SKIP() << "this kernel cannot reset VmHWM";
+  const FrameFeatures features = detect_sift(image, cv::Mat(), 8000);
+  const std::uint64_t taken = resident_and_peak().second - resident;
+  const std::uint64_t estimate = sift_detection_bytes(image.size());
+  std::cout << "[ measured ] SIFT on 1600x1200: " << (taken >> 20) << " MiB at the peak, estimated "
+            << (estimate >> 20) << " MiB\n";
+  EXPECT_EQ(features.points.size(), 8000u);
+  EXPECT_LE(taken, estimate);
+  EXPECT_GT(taken, estimate * 17 / 20);
+}
+
+// What a tool checks against --max-memory before decoding: the working images held (8-bit, one byte a
+// pixel) with their features, and one SIFT detection on a working image, which here outweighs
+// decoding one file.
+TEST(Correspondences, MemoryNeededIsTheFramesHeldAndOneDetection) {
+  TempDir dir;
+  std::vector<SequenceFrame> frames;
+  for (int f = 0; f < 3; ++f) {
+    const auto path = dir / ("f" + std::to_string(f) + ".png");
+    cv::imwrite(path.string(), blurred_noise(cv::Size(320, 240), f));
+    frames.push_back({std::to_string(f), path, {}});
+  }
+  CorrespondenceOptions options;
+  options.max_features = 1000;
+  const std::uint64_t features = 3 * 1000 * sift_feature_bytes;
+  EXPECT_EQ(correspondence_memory_bytes(frames, options),
+            3 * 320 * 240 + features + sift_detection_bytes({320, 240}));
+  options.downscale = 2;
+  EXPECT_EQ(correspondence_memory_bytes(frames, options),
+            3 * 160 * 120 + features + sift_detection_bytes({160, 120}));
+  frames.push_back({"missing", dir / "missing.png", {}});
+  EXPECT_THROW(correspondence_memory_bytes(frames, options), InputError);
 }
 
 TEST(Klt, TracksAShiftedImageToSubPixelAccuracy) {
