@@ -235,6 +235,23 @@ TEST(SfmReal, HerzJesusP8FullResolutionSelfCalibrated) {
   EXPECT_LT(m.focal_error_percent, 0.5);
 }
 
+// With the true intrinsics at full resolution pg is not yet at COLMAP's level (issue #5): centre
+// error 0.0215% (0.0203-0.0226% over the feature and matching variants tried), COLMAP 0.0171-0.0184%
+// over its runs; orientation-aligned 0.0170 deg, COLMAP 0.0169. Per camera both tools' centre errors
+// follow one pattern (cameras 0-4 within 0.001% of each other), and the tools' cameras agree with
+// each other four times more closely than either with the truth, which explains pg's tracks worse
+// than either tool's cameras do (bench_track): the difference lies within the ground truth's own
+// error. Held at pg's measurements, rounded up, so that they cannot get worse.
+TEST(SfmReal, HerzJesusP8FullResolutionKnownIntrinsics) {
+  PG_REQUIRE_REAL_DATA(folder, "multiview/strecha/Herz-Jesus-P8");
+  const CameraSet truth = import_strecha_cameras(folder / "gt_dense_cameras", "images");
+  const Measured m = track_and_evaluate("Herz-Jesus-P8 3072x2048", folder, truth, true, 1.0);
+  EXPECT_EQ(m.registered, 8u);
+  EXPECT_LT(m.median_centre_percent, 0.0220);
+  EXPECT_LT(m.median_orientation_deg, 0.0175);
+  EXPECT_LT(m.median_rotation_deg, 0.116);  // COLMAP measured 0.116-0.125 (pg 0.099)
+}
+
 // pg measured 0.0173% (COLMAP 0.0177-0.0187% over its runs) and 0.0288 deg orientation-aligned
 // (COLMAP 0.0245).
 TEST(SfmReal, EntryP10FullResolutionKnownIntrinsics) {
