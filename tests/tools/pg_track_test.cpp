@@ -153,21 +153,26 @@ TEST_F(PgTrack, OutputsDoNotDependOnTheThreadCount) {
 
 // --max-memory with room for one SIFT detection at a time on two threads: a 640x480 frame's scale
 // space takes about 73 MiB, beside 35 MiB for the eight frames and their features. The detections run
-// one by one instead of two at once, and the outputs are the same.
+// one by one instead of two at once; the working images, no longer within half the budget, are
+// dropped after detection and decoded again for the position refinement; the outputs are the same.
 TEST_F(PgTrack, AMemoryBudgetRunsOneDetectionAtATimeWithTheSameOutputs) {
-  // Runs pg-track into `dir` and returns how many detections its report says ran at once.
-  const auto detections_at_once = [&](const TempDir& dir, std::vector<std::string> extra) {
+  // Runs pg-track into `dir` and returns its report's metrics.
+  const auto metrics = [&](const TempDir& dir, std::vector<std::string> extra) {
     std::vector<std::string> args = {"--images", (scene() / "images").string(), "--range",   "0:8",
                                      "--out",    dir.path().string(),           "--threads", "2",
                                      "--report", (dir / "report.json").string()};
     args.insert(args.end(), extra.begin(), extra.end());
     const auto r = run_tool("pg-track", args);
     EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
-    return pg::read_json_file(dir / "report.json")["metrics"]["sift_detections_at_once"].get<int>();
+    return pg::read_json_file(dir / "report.json")["metrics"];
   };
   TempDir free, budget;
-  EXPECT_EQ(detections_at_once(free, {}), 2);
-  EXPECT_EQ(detections_at_once(budget, {"--max-memory", "140M"}), 1);
+  const nlohmann::json free_metrics = metrics(free, {});
+  const nlohmann::json budget_metrics = metrics(budget, {"--max-memory", "140M"});
+  EXPECT_EQ(free_metrics.value("sift_detections_at_once", 0), 2);
+  EXPECT_TRUE(free_metrics.value("images_held", false));
+  EXPECT_EQ(budget_metrics.value("sift_detections_at_once", 0), 1);
+  EXPECT_FALSE(budget_metrics.value("images_held", true));
   expect_same_outputs(free, budget);
 }
 

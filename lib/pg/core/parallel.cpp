@@ -4,8 +4,10 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
 #include <tbb/partitioner.h>
 
+#include <algorithm>
 #include <memory>
 #include <mutex>
 
@@ -40,6 +42,16 @@ void parallel_chunks(std::int64_t n, std::int64_t grain,
         for (std::int64_t c = r.begin(); c != r.end(); ++c) body(c * grain, std::min(n, (c + 1) * grain));
       },
       tbb::simple_partitioner());
+}
+
+void parallel_for_bounded(int n, int at_once, const std::function<void(int)>& body) {
+  int next = 0;
+  tbb::parallel_pipeline(
+      static_cast<std::size_t>(std::max(1, at_once)),
+      tbb::make_filter<void, int>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control& control) {
+        if (next == n) control.stop();
+        return next < n ? next++ : 0;
+      }) & tbb::make_filter<int, void>(tbb::filter_mode::parallel, [&](int i) { body(i); }));
 }
 
 }  // namespace pg

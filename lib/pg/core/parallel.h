@@ -15,4 +15,8 @@ int thread_count();
 void parallel_chunks(std::int64_t n, std::int64_t grain,
                      const std::function<void(std::int64_t begin, std::int64_t end)>& body);
 
+// body(i) for every i in [0, n), at most `at_once` of them running at a time (each holds a large
+// buffer, say); the other threads stay free for parallel loops inside body.
+void parallel_for_bounded(int n, int at_once, const std::function<void(int)>& body);
+
 }  // namespace pg

@@ -1,10 +1,8 @@
 #include "pg/track/correspondences.h"
 
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_pipeline.h>
 #include <algorithm>
 #include <chrono>
-#include <functional>
 #include <map>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
@@ -61,13 +59,14 @@ cv::Size working_size(cv::Size full, double downscale) {
           std::max(1, static_cast<int>(std::lround(full.height / downscale)))};
 }
 
-WorkingFrame load_frame(const SequenceFrame& frame, double downscale) {
+// The frame's working image, and its mask unless `with_mask` is false.
+WorkingFrame load_frame(const SequenceFrame& frame, double downscale, bool with_mask = true) {
   WorkingFrame w;
   cv::Mat gray = read_image(frame.image, ReadMode::gray_float);
   w.full_size = gray.size();
   gray.convertTo(w.gray8, CV_8U, 255.0);
   cv::Mat mask;
-  if (!frame.mask.empty()) {
+  if (with_mask && !frame.mask.empty()) {
     mask = read_image(frame.mask, ReadMode::gray_float);
     if (mask.size() != gray.size())
       throw InputError(frame.mask, str("mask is ", mask.cols, "x", mask.rows, " but image ",
@@ -91,35 +90,39 @@ WorkingFrame load_frame(const SequenceFrame& frame, double downscale) {
   return w;
 }
 
-// What one frame costs in memory, from its file headers: what build_correspondences keeps (the 8-bit
-// working image and mask, and the most features detect_sift keeps), what load_frame holds while decoding it
-// (the file decoded, its float grey and its 8-bit copy, and the same for a mask), and one SIFT detection on
-// it. Zero when the image's header cannot be read.
+// What frames cost in memory, from their file headers: what build_correspondences may keep (the 8-bit
+// working images and masks, and the most features detect_sift keeps), what load_frame holds while it
+// decodes one frame (the file decoded, its float grey and 8-bit copies, and the same for a mask), and
+// one SIFT detection with the image it searches. For several frames: the sums of what is kept, the
+// largest decode and detection.
 struct FrameMemory {
-  std::uint64_t held = 0, load = 0, detection = 0;
+  std::uint64_t images = 0, features = 0, load = 0, detection = 0;
+  int unknown = 0;  // frames whose size no header told (left out of the rest)
 };
 
 FrameMemory frame_memory(const SequenceFrame& frame, const CorrespondenceOptions& options) {
   const std::optional<cv::Size> full = peek_image_size(frame.image);
-  if (!full) return {};
-  const bool masked = !frame.mask.empty();
+  if (!full) return {.unknown = 1};
+  const int planes = frame.mask.empty() ? 1 : 2;
   const cv::Size working = working_size(*full, options.downscale);
   const std::uint64_t decoded = decoded_image_bytes_per_pixel(frame.image) + sizeof(float) + 1;
   FrameMemory m;
-  m.held = std::uint64_t(working.area()) * (masked ? 2 : 1) + options.max_features * sift_feature_bytes;
-  m.load = std::uint64_t(full->area()) * decoded * (masked ? 2 : 1);
-  m.detection = sift_detection_bytes(working);
+  m.images = std::uint64_t(working.area()) * planes;
+  m.features = options.max_features * sift_feature_bytes;
+  m.load = std::uint64_t(full->area()) * decoded * planes;
+  m.detection = sift_detection_bytes(working) + m.images;
   return m;
 }
 
-// The frames together: every frame's held bytes, and the largest decode and detection among them.
 FrameMemory frames_memory(const std::vector<SequenceFrame>& frames, const CorrespondenceOptions& options) {
   FrameMemory total;
   for (const SequenceFrame& frame : frames) {
     const FrameMemory m = frame_memory(frame, options);
-    total.held += m.held;
+    total.images += m.images;
+    total.features += m.features;
     total.load = std::max(total.load, m.load);
     total.detection = std::max(total.detection, m.detection);
+    total.unknown += m.unknown;
   }
   return total;
 }
@@ -130,18 +133,6 @@ int tasks_that_fit(std::uint64_t budget, std::uint64_t held, std::uint64_t task_
   if (budget == 0 || task_bytes == 0) return n;
   const std::uint64_t free = budget > held ? budget - held : 0;
   return static_cast<int>(std::clamp<std::uint64_t>(free / task_bytes, 1, std::max(1, n)));
-}
-
-// body(i) for every i in [0, n), at most `at_once` of them running at a time; the rest of the threads
-// stay free for the loops inside body (OpenCV's own, which run on TBB too).
-void bounded_parallel_for(int n, int at_once, const std::function<void(int)>& body) {
-  int next = 0;
-  tbb::parallel_pipeline(
-      static_cast<std::size_t>(std::max(1, at_once)),
-      tbb::make_filter<void, int>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control& control) {
-        if (next == n) control.stop();
-        return next < n ? next++ : 0;
-      }) & tbb::make_filter<int, void>(tbb::filter_mode::parallel, [&](int i) { body(i); }));
 }
 
 struct SiftMatcher {
@@ -360,7 +351,9 @@ int enforce_track_consistency(std::vector<Track>& tracks, const std::vector<Veri
 std::uint64_t correspondence_memory_bytes(const std::vector<SequenceFrame>& frames,
                                           const CorrespondenceOptions& options) {
   const FrameMemory m = frames_memory(frames, options);
-  return m.held + std::max(m.load, m.detection);
+  // SIFT need not keep the working images (see build_correspondences); KLT and unplanned frames do.
+  const bool streamable = options.method == CorrespondenceMethod::sift && m.unknown == 0;
+  return (streamable ? 0 : m.images) + m.features + std::max(m.load, m.detection);
 }
 
 CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& frames,
@@ -370,22 +363,26 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
   const int n = static_cast<int>(frames.size());
   const std::uint64_t budget = options.memory_budget ? options.memory_budget : available_memory_bytes();
   const FrameMemory planned = frames_memory(frames, options);
+  const int threads = std::min(n, thread_count());
+  const bool klt = options.method != CorrespondenceMethod::sift;
+  // KLT follows points through all frames at once, and a frame whose header pg cannot read has no
+  // size to plan with: then every frame is decoded up front. Otherwise each is decoded where its
+  // features are found.
+  const bool decode_up_front = klt || planned.unknown > 0;
   std::vector<WorkingFrame> work(n);
-  bounded_parallel_for(n, tasks_that_fit(budget, planned.held, planned.load, std::min(n, thread_count())),
-                       [&](int f) { work[f] = load_frame(frames[f], options.downscale); });
+  if (decode_up_front)
+    parallel_for_bounded(n, tasks_that_fit(budget, planned.images + planned.features, planned.load, threads),
+                         [&](int f) { work[f] = load_frame(frames[f], options.downscale); });
+  bool images_held = true;  // the working images stay in memory for the position refinement
 
   CorrespondenceResult result;
   result.tracks.method = to_string(options.method);
-  for (int f = 0; f < n; ++f)
-    result.tracks.frames.push_back(
-        {frames[f].id, frames[f].image.string(), work[f].full_size.width, work[f].full_size.height});
 
   // Per-frame point lists (working pixels): KLT points first, then SIFT features.
   std::vector<std::vector<cv::Point2f>> points(n);
   std::vector<std::vector<PointShape>> shapes(n);  // parallel to points; KLT points have none
   std::vector<PointLink> links;
   std::vector<int> continued(n, 0);
-  const bool klt = options.method != CorrespondenceMethod::sift;
   if (klt) {
     std::vector<cv::Mat> grays, masks;
     for (const WorkingFrame& w : work) grays.push_back(w.gray8), masks.push_back(w.mask);
@@ -422,21 +419,32 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
     std::vector<FrameFeatures> features(n);
     std::vector<int> offset(n);
     std::optional<ScopedTimer> timer(std::in_place, "sift features");
-    std::uint64_t held = 0, detection = 0;
-    for (const WorkingFrame& w : work) {
-      held += w.gray8.total() + w.mask.total() + options.max_features * sift_feature_bytes;
-      detection = std::max(detection, sift_detection_bytes(w.gray8.size()));
+    // Detections at once beside what is held: every frame's features, and their working images
+    // unless those are dropped after detection. They are dropped when keeping them and running the
+    // detections would take more than half the budget (the rest is for matching and mapping); then
+    // they are decoded again for the position refinement. Frames decoded up front are measured.
+    std::uint64_t images = planned.images, task = std::max(planned.load, planned.detection);
+    if (decode_up_front) {
+      images = task = 0;
+      for (const WorkingFrame& w : work) {
+        images += w.gray8.total() + w.mask.total();
+        task = std::max(task, sift_detection_bytes(w.gray8.size()));
+      }
     }
-    const int most = std::min(n, thread_count());
-    const int at_once = tasks_that_fit(budget, held, detection, most);
+    const std::uint64_t features_held = std::uint64_t(n) * options.max_features * sift_feature_bytes;
+    int at_once = tasks_that_fit(budget, images + features_held, task, threads);
+    images_held = decode_up_front || budget == 0 || images + features_held + at_once * task <= budget / 2;
+    if (!images_held) at_once = tasks_that_fit(budget, features_held, task, threads);
     RunReport::global().set_metric("sift_detections_at_once", at_once);
-    if (at_once < most)
+    if (at_once < threads)
       log::info("sift: memory allows ", at_once, " detection", at_once > 1 ? "s" : "", " at a time (",
-                detection >> 20, " MiB each, ", held >> 20, " MiB of images and features held, budget ",
-                budget >> 20, " MiB)");
-    bounded_parallel_for(n, at_once, [&](int f) {
+                task >> 20, " MiB each, budget ", budget >> 20, " MiB)");
+    parallel_for_bounded(n, at_once, [&](int f) {
+      if (!decode_up_front) work[f] = load_frame(frames[f], options.downscale);
       features[f] =
           detect_sift(work[f].gray8, work[f].mask, klt ? options.max_features / 2 : options.max_features);
+      work[f].mask.release();  // only detection reads masks
+      if (!images_held) work[f].gray8.release();
     });
     for (int f = 0; f < n; ++f) {
       offset[f] = static_cast<int>(points[f].size());
@@ -455,14 +463,23 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
     }
   }
 
+  for (int f = 0; f < n; ++f)
+    result.tracks.frames.push_back(
+        {frames[f].id, frames[f].image.string(), work[f].full_size.width, work[f].full_size.height});
+
   // Refinement moves points, never links: the components found here are the tracks built below.
   const std::vector<NodeTrack> components = link_components(points, links);
   if (options.refine_positions) {
-    std::vector<cv::Mat> grays;
-    for (const WorkingFrame& w : work) grays.push_back(w.gray8);
     const ScopedTimer timer("position refinement");
+    RunReport::global().set_metric("images_held", images_held);
+    if (!images_held) log::info("position refinement: decoding the images again (memory budget)");
+    const auto gray = [&](int f) {
+      return images_held ? work[f].gray8 : load_frame(frames[f], options.downscale, false).gray8;
+    };
+    const int frames_at_once =
+        images_held ? n : tasks_that_fit(budget, planned.features, planned.load + planned.images, threads);
     const PositionRefinementStats& stats = result.refinement =
-        refine_track_positions(grays, points, shapes, components, options.refinement);
+        refine_track_positions(n, gray, frames_at_once, points, shapes, components, options.refinement);
     log::debug("position refinement: ", stats.refined, " observations moved (mean ", stats.mean_shift_px,
                " px), ", stats.refused, " left");
   }

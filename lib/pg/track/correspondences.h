@@ -47,7 +47,9 @@ struct CorrespondenceOptions {
   // Bytes build_correspondences may hold (a --max-memory budget); 0: none given, and the memory the
   // system has available bounds it instead. Frames are decoded and SIFT detections run (each
   // sift_detection_bytes, about 250 bytes a working pixel) at most as many at a time as fit beside the
-  // working images held, and at least one. The results do not depend on it.
+  // working images held, and at least one. When those and one detection would take more than half the
+  // budget, the working images are not kept after detection but decoded again for the position
+  // refinement (SIFT mode; KLT needs every frame at once). The results do not depend on it.
   std::uint64_t memory_budget = 0;
 };
 

@@ -5,8 +5,11 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <optional>
+
+#include "pg/core/parallel.h"
 
 namespace pg {
 
@@ -130,41 +133,82 @@ PositionRefinementStats refine_track_positions(const std::vector<cv::Mat>& image
                                                const std::vector<std::vector<PointShape>>& shapes,
                                                const std::vector<NodeTrack>& tracks,
                                                const PositionRefinementOptions& options) {
-  struct TrackStats {
-    int refined = 0, refused = 0;
-    double shift = 0;
-  };
-  std::vector<TrackStats> per_track(tracks.size());
-  tbb::parallel_for(std::size_t(0), tracks.size(), [&](std::size_t k) {
-    const NodeTrack& track = tracks[k];
-    if (track.size() < 2) return;
-    const auto [ref_frame, ref_index] = track[track.size() / 2];
-    const cv::Point2d ref_point = points[ref_frame][ref_index];
-    std::vector<float> templ;
-    TrackStats& stats = per_track[k];
-    const int r =
-        options.half_window > 0 ? options.half_window : automatic_half_window(images[ref_frame].size());
-    if (!sample_patch(images[ref_frame], ref_point, Eigen::Matrix2d::Identity(), r, templ)) {
-      stats.refused = static_cast<int>(track.size()) - 1;
-      return;
-    }
-    for (const auto& [frame, index] : track) {
-      if (frame == ref_frame && index == ref_index) continue;
-      cv::Point2f& p = points[frame][index];
-      const auto found = align(templ, r, images[frame], p,
-                               initial_warp(shapes[ref_frame][ref_index], shapes[frame][index]), options);
-      if (!found || found->correlation < options.min_correlation) {
-        ++stats.refused;
-        continue;
-      }
-      stats.shift += std::hypot(found->position.x - p.x, found->position.y - p.y);
-      p = cv::Point2f(static_cast<float>(found->position.x), static_cast<float>(found->position.y));
-      ++stats.refined;
-    }
+  const int n = static_cast<int>(images.size());
+  return refine_track_positions(
+      n, [&](int f) { return images[f]; }, n, points, shapes, tracks, options);
+}
+
+PositionRefinementStats refine_track_positions(int frame_count, const std::function<cv::Mat(int)>& load,
+                                               int frames_at_once,
+                                               std::vector<std::vector<cv::Point2f>>& points,
+                                               const std::vector<std::vector<PointShape>>& shapes,
+                                               const std::vector<NodeTrack>& tracks,
+                                               const PositionRefinementOptions& options) {
+  // Pass 1: each track's reference patch, around its middle observation in frame order, which stays.
+  std::vector<std::vector<int>> referenced_in(frame_count);
+  for (std::size_t k = 0; k < tracks.size(); ++k)
+    if (tracks[k].size() >= 2)
+      referenced_in[tracks[k][tracks[k].size() / 2].first].push_back(static_cast<int>(k));
+  std::vector<std::vector<float>> templates(tracks.size());
+  std::vector<int> radius(tracks.size(), 0);  // 0: no reference patch (too near the border)
+  parallel_for_bounded(frame_count, frames_at_once, [&](int f) {
+    if (referenced_in[f].empty()) return;
+    const cv::Mat image = load(f);
+    const int r = options.half_window > 0 ? options.half_window : automatic_half_window(image.size());
+    tbb::parallel_for(std::size_t(0), referenced_in[f].size(), [&](std::size_t i) {
+      const int k = referenced_in[f][i];
+      const auto [frame, index] = tracks[k][tracks[k].size() / 2];
+      if (sample_patch(image, points[frame][index], Eigen::Matrix2d::Identity(), r, templates[k]))
+        radius[k] = r;
+    });
   });
+
+  // Pass 2: every other observation aligned onto its track's reference patch, frame by frame.
+  std::vector<std::vector<std::pair<int, int>>> observed_in(frame_count);  // (track, node) pairs
+  std::vector<std::vector<double>> shift(tracks.size());                   // NaN: refused
+  for (std::size_t k = 0; k < tracks.size(); ++k) {
+    if (radius[k] == 0) continue;
+    shift[k].assign(tracks[k].size(), std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t i = 0; i < tracks[k].size(); ++i)
+      if (i != tracks[k].size() / 2)
+        observed_in[tracks[k][i].first].push_back({static_cast<int>(k), static_cast<int>(i)});
+  }
+  parallel_for_bounded(frame_count, frames_at_once, [&](int f) {
+    if (observed_in[f].empty()) return;
+    const cv::Mat image = load(f);
+    tbb::parallel_for(std::size_t(0), observed_in[f].size(), [&](std::size_t o) {
+      const auto [k, i] = observed_in[f][o];
+      const auto [ref_frame, ref_index] = tracks[k][tracks[k].size() / 2];
+      const auto [frame, index] = tracks[k][i];
+      cv::Point2f& p = points[frame][index];
+      const auto found = align(templates[k], radius[k], image, p,
+                               initial_warp(shapes[ref_frame][ref_index], shapes[frame][index]), options);
+      if (!found || found->correlation < options.min_correlation) return;
+      shift[k][i] = std::hypot(found->position.x - p.x, found->position.y - p.y);
+      p = cv::Point2f(static_cast<float>(found->position.x), static_cast<float>(found->position.y));
+    });
+  });
+
+  // Totals in track order, each track's in node order, whatever order the frames ran in.
   PositionRefinementStats out;
-  for (const TrackStats& s : per_track)
-    out.refined += s.refined, out.refused += s.refused, out.mean_shift_px += s.shift;
+  for (std::size_t k = 0; k < tracks.size(); ++k) {
+    if (tracks[k].size() < 2) continue;
+    if (radius[k] == 0) {
+      out.refused += static_cast<int>(tracks[k].size()) - 1;
+      continue;
+    }
+    double track_shift = 0;
+    for (std::size_t i = 0; i < tracks[k].size(); ++i) {
+      if (i == tracks[k].size() / 2) continue;
+      if (std::isnan(shift[k][i])) {
+        ++out.refused;
+      } else {
+        track_shift += shift[k][i];
+        ++out.refined;
+      }
+    }
+    out.mean_shift_px += track_shift;
+  }
   if (out.refined > 0) out.mean_shift_px /= out.refined;
   return out;
 }

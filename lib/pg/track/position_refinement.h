@@ -6,6 +6,7 @@
 // Structure-from-Motion", here with image intensities rather than learned features). Every
 // observation then marks the same surface point, and the bundle adjustment sees residuals of the
 // alignment's accuracy (hundredths of a pixel on textured patches) rather than the detector's.
+#include <functional>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -39,6 +40,17 @@ using NodeTrack = std::vector<std::pair<int, int>>;
 // alignment's rotation and scale. A node must belong to at most one track. Deterministic, parallel
 // over tracks.
 PositionRefinementStats refine_track_positions(const std::vector<cv::Mat>& images,
+                                               std::vector<std::vector<cv::Point2f>>& points,
+                                               const std::vector<std::vector<PointShape>>& shapes,
+                                               const std::vector<NodeTrack>& tracks,
+                                               const PositionRefinementOptions& options = {});
+
+// The same with the frames streamed instead of held: `load(f)` returns frame f's image. A first pass
+// over the frames takes every track's reference patch, a second aligns the other observations onto
+// them; each pass loads a frame at most once, and at most `frames_at_once` at a time (at least one).
+// The results are the same as above.
+PositionRefinementStats refine_track_positions(int frame_count, const std::function<cv::Mat(int)>& load,
+                                               int frames_at_once,
                                                std::vector<std::vector<cv::Point2f>>& points,
                                                const std::vector<std::vector<PointShape>>& shapes,
                                                const std::vector<NodeTrack>& tracks,

@@ -129,5 +129,55 @@ TEST(PositionRefinement, LeavesWrongMatchesWhereTheyWere) {
   EXPECT_EQ(unchanged, stats.refused);
 }
 
+// Streamed frames (pg-track under a memory budget): three frames, tracks across them with their
+// references in every frame, loaded on demand one at a time. Each frame is loaded at most once a pass,
+// and the points and statistics are exactly those of the frames held in memory.
+TEST(PositionRefinement, StreamedFramesGiveTheSameResultsAsHeldOnes) {
+  const std::vector<cv::Mat> images = {rendered_texture(cv::Matx33d(1, 0, 1.3, 0, 1, -0.7, 0, 0, 1)),
+                                       rendered_texture(cv::Matx33d::eye()),
+                                       rendered_texture(cv::Matx33d(1, 0, -2.1, 0, 1, 1.6, 0, 0, 1))};
+  std::vector<FrameFeatures> features;
+  std::vector<std::vector<PointShape>> shapes;
+  for (const cv::Mat& image : images) {
+    features.push_back(detect_sift(image, {}, 1000));
+    shapes.push_back(features.back().shapes);
+  }
+  // Tracks 0-1, 1-2 and 0-1-2 from the matches of neighbouring frames, so references fall in each.
+  std::vector<NodeTrack> tracks;
+  std::vector<bool> used0(features[0].points.size()), used1(features[1].points.size());
+  const std::vector<FeatureMatch> m01 = match_descriptors(features[0].descriptors, features[1].descriptors);
+  const std::vector<FeatureMatch> m12 = match_descriptors(features[1].descriptors, features[2].descriptors);
+  for (const FeatureMatch& a : m01)
+    for (const FeatureMatch& b : m12)
+      if (a.b == b.a && !used0[a.a] && !used1[a.b]) {
+        tracks.push_back({{0, a.a}, {1, a.b}, {2, b.b}});
+        used0[a.a] = used1[a.b] = true;
+      }
+  for (const FeatureMatch& a : m01)
+    if (!used0[a.a] && !used1[a.b]) tracks.push_back({{0, a.a}, {1, a.b}}), used1[a.b] = true;
+  for (const FeatureMatch& b : m12)
+    if (!used1[b.a]) tracks.push_back({{1, b.a}, {2, b.b}});
+  ASSERT_GT(tracks.size(), 300u);
+
+  std::vector<std::vector<cv::Point2f>> held_points, streamed_points;
+  for (const FrameFeatures& f : features) held_points.push_back(f.points);
+  streamed_points = held_points;
+  const PositionRefinementStats held = refine_track_positions(images, held_points, shapes, tracks);
+  std::vector<int> loads(images.size(), 0);
+  const PositionRefinementStats streamed = refine_track_positions(
+      static_cast<int>(images.size()),
+      [&](int f) {
+        ++loads[f];
+        return images[f].clone();
+      },
+      1, streamed_points, shapes, tracks);
+  EXPECT_GT(held.refined, static_cast<int>(tracks.size()));
+  EXPECT_EQ(streamed.refined, held.refined);
+  EXPECT_EQ(streamed.refused, held.refused);
+  EXPECT_EQ(streamed.mean_shift_px, held.mean_shift_px);
+  EXPECT_TRUE(streamed_points == held_points);
+  for (int count : loads) EXPECT_LE(count, 2);
+}
+
 }  // namespace
 }  // namespace pg

@@ -326,10 +326,10 @@ TEST(Features, SiftDetectionBytesCoverWhatADetectionTakes) {
   EXPECT_GT(taken, estimate * 17 / 20);
 }
 
-// What a tool checks against --max-memory before decoding: the working images held (8-bit, one byte a
-// pixel) with their features, and one SIFT detection on a working image, which here outweighs
-// decoding one file.
-TEST(Correspondences, MemoryNeededIsTheFramesHeldAndOneDetection) {
+// What a tool checks against --max-memory before decoding: every frame's features, and one SIFT
+// detection with the image it searches (here more than decoding one file). KLT keeps every working
+// image (8-bit, a byte a pixel); SIFT can decode them again when it refines positions.
+TEST(Correspondences, MemoryNeededIsTheFeaturesAndOneDetection) {
   TempDir dir;
   std::vector<SequenceFrame> frames;
   for (int f = 0; f < 3; ++f) {
@@ -341,10 +341,13 @@ TEST(Correspondences, MemoryNeededIsTheFramesHeldAndOneDetection) {
   options.max_features = 1000;
   const std::uint64_t features = 3 * 1000 * sift_feature_bytes;
   EXPECT_EQ(correspondence_memory_bytes(frames, options),
-            3 * 320 * 240 + features + sift_detection_bytes({320, 240}));
+            features + 320 * 240 + sift_detection_bytes({320, 240}));
   options.downscale = 2;
   EXPECT_EQ(correspondence_memory_bytes(frames, options),
-            3 * 160 * 120 + features + sift_detection_bytes({160, 120}));
+            features + 160 * 120 + sift_detection_bytes({160, 120}));
+  options.method = CorrespondenceMethod::klt;
+  EXPECT_EQ(correspondence_memory_bytes(frames, options),
+            3 * 160 * 120 + features + 160 * 120 + sift_detection_bytes({160, 120}));
   frames.push_back({"missing", dir / "missing.png", {}});
   EXPECT_THROW(correspondence_memory_bytes(frames, options), InputError);
 }
