@@ -151,4 +151,15 @@ TEST(SystemMemory, AvailableIsKnownAndWithinThePhysicalMemory) {
   EXPECT_LE(available, physical);
 }
 
+// A container's limit: what is left after the usage, with the reclaimable file cache not counted;
+// "max" (cgroup v2) and v1's near-2^63 mean no limit.
+TEST(SystemMemory, ACgroupLimitLeavesTheLimitLessWhatIsInUse) {
+  const std::uint64_t mib = std::uint64_t{1} << 20;
+  EXPECT_EQ(pg::memory_left_under_limit("1073741824", 600 * mib, 100 * mib), 524 * mib);
+  EXPECT_EQ(pg::memory_left_under_limit("1073741824\n", 2048 * mib, 0), 0u);
+  EXPECT_EQ(pg::memory_left_under_limit("max", 600 * mib, 0), std::nullopt);
+  EXPECT_EQ(pg::memory_left_under_limit("9223372036854771712", 600 * mib, 0), std::nullopt);
+  EXPECT_EQ(pg::memory_left_under_limit("", 600 * mib, 0), std::nullopt);
+}
+
 }  // namespace
