@@ -75,9 +75,10 @@ struct CorrespondenceResult {
   PositionRefinementStats refinement;  // zero when refinement is off
 };
 
-// The least memory build_correspondences needs for `frames`, from their file headers: the working
-// images it holds, and one frame being decoded or one SIFT detection. Frames whose header pg cannot
-// read (peek_image_size) are left out. Throws InputError for a missing or corrupt file.
+// The least memory build_correspondences needs for `frames`, from their file headers: every frame's
+// features, and one frame being decoded or one SIFT detection with its image. KLT modes also hold
+// every working image, as do runs with a frame whose header pg cannot read (peek_image_size); such a
+// frame is itself left out. Throws InputError for a missing or corrupt file.
 std::uint64_t correspondence_memory_bytes(const std::vector<SequenceFrame>& frames,
                                           const CorrespondenceOptions& options);
 
