@@ -118,11 +118,20 @@ TEST(PgDepth, BadInputsGiveClearErrors) {
   EXPECT_NE(r.stderr_text.find("nope"), std::string::npos);
   r = run_tool("pg-depth", {"--cameras", cameras, "--out-dir", out, "--range", "7,2"});
   EXPECT_EQ(r.exit_code, 2);
-  // An image whose size differs from its camera.
-  cv::imwrite((shot.dir / "images/view_1.png").string(), cv::Mat3b(10, 10, cv::Vec3b(1, 2, 3)));
-  r = run_tool("pg-depth", {"--cameras", cameras, "--out-dir", out, "--pair", "view_0:view_1"});
+  // A mask, then an image, whose size differs from its camera's: found from the headers before any
+  // pair is computed, so the first pair (view_0:view_1) leaves no depth map either.
+  fs::create_directories(shot.dir / "masks");
+  cv::imwrite((shot.dir / "masks/view_1.png").string(), cv::Mat1b(12, 12, uchar(255)));
+  r = run_tool("pg-depth",
+               {"--cameras", cameras, "--out-dir", out, "--masks", (shot.dir / "masks").string()});
   EXPECT_EQ(r.exit_code, 3);
-  EXPECT_NE(r.stderr_text.find("view_1"), std::string::npos);
+  EXPECT_NE(r.stderr_text.find("mask is 12x12 but camera 'view_1'"), std::string::npos) << r.stderr_text;
+  cv::imwrite((shot.dir / "images/view_2.png").string(), cv::Mat3b(10, 10, cv::Vec3b(1, 2, 3)));
+  r = run_tool("pg-depth", {"--cameras", cameras, "--out-dir", out});
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.stderr_text.find("view_2.png: image is 10x10 but camera 'view_2'"), std::string::npos)
+      << r.stderr_text;
+  EXPECT_FALSE(fs::exists(shot.dir / "o" / "view_0-view_1.exr"));
   // Two cameras at the same centre.
   pg::CameraSet set = pg::read_cameras(cameras);
   set.cameras[2].cam_from_world = set.cameras[0].cam_from_world;

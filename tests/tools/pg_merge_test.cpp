@@ -104,6 +104,12 @@ TEST(PgMerge, BadInputsAreClearErrors) {
                             (dir / "plain.exr").string()});
   EXPECT_EQ(r.exit_code, 3);
   EXPECT_NE(r.stderr_text.find("plain.exr"), std::string::npos) << r.stderr_text;
+  // After a good map, found from its header before the good one is integrated.
+  r = run_tool("pg-merge", {"volume", "--voxel-size", "0.03", "--out", (dir / "o.ply").string(), "--depth",
+                            depth[0], (dir / "plain.exr").string()});
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.stderr_text.find("plain.exr"), std::string::npos) << r.stderr_text;
+  EXPECT_EQ(r.stderr_text.find("integrated 1/2"), std::string::npos) << r.stderr_text;
   // A mask of the wrong size.
   fs::create_directories(dir / "masks");
   write_image(dir / "masks" / "view_0.png", cv::Mat1b(10, 10, std::uint8_t(0)));

@@ -1,6 +1,7 @@
 // pg-depth: depth maps from image pairs by variational optical flow and triangulation.
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "common/cli.h"
@@ -78,6 +79,32 @@ cv::Mat1b read_mask(const Options& o, const pg::Camera& camera) {
     throw pg::InputError(path, pg::str("mask is ", mask.cols, "x", mask.rows, " but camera '", camera.id,
                                        "' is ", camera.width, "x", camera.height));
   return mask;
+}
+
+// Every pair's inputs checked before any pair is computed, from the files' headers, so that a farm
+// chunk with one wrong image fails in seconds rather than after its earlier pairs: the cameras have a
+// baseline, the images and masks exist and have their camera's size. Formats whose header cannot be
+// read without decoding are checked again when decoded.
+void check_pair_inputs(const Options& o, const pg::CameraSet& set, const std::vector<PairIds>& pairs) {
+  const auto check_size = [](const fs::path& path, const pg::Camera& camera, const char* what) {
+    const std::optional<cv::Size> size = pg::peek_image_size(path);
+    if (size && (size->width != camera.width || size->height != camera.height))
+      throw pg::InputError(path, pg::str(what, " is ", size->width, "x", size->height, " but camera '",
+                                         camera.id, "' is ", camera.width, "x", camera.height));
+  };
+  for (const PairIds& ids : pairs) {
+    const pg::Camera& reference = *set.find(ids.reference);
+    const pg::Camera& other = *set.find(ids.other);
+    if ((reference.cam_from_world.centre() - other.cam_from_world.centre()).norm() == 0)
+      throw pg::InputError(o.cameras, "cameras '" + ids.reference + "' and '" + ids.other +
+                                          "' have the same centre: no baseline to triangulate");
+    for (const pg::Camera* camera : {&reference, &other}) {
+      check_size(image_path(o.cameras, *camera), *camera, "image");
+      if (o.masks.empty()) continue;
+      const fs::path mask = fs::path(o.masks) / (camera->id + ".png");
+      if (fs::exists(mask)) check_size(mask, *camera, "mask");
+    }
+  }
 }
 
 cv::Mat read_view(const fs::path& path, const pg::Camera& camera) {
@@ -173,6 +200,7 @@ int main(int argc, char** argv) {
     const pg::DepthPairOptions options = pair_options(o);
     const pg::CameraSet set = pg::read_cameras(o.cameras);
     const std::vector<PairIds> pairs = parse_pairs(o, set);
+    check_pair_inputs(o, set, pairs);
     require_memory(o, set, pairs, options);
     frame.output_dir(o.out_dir);
     const fs::path out_dir = o.out_dir;
@@ -182,9 +210,6 @@ int main(int argc, char** argv) {
       pg::DepthPairInput input;
       input.reference = *set.find(ids.reference);
       input.other = *set.find(ids.other);
-      if ((input.reference.cam_from_world.centre() - input.other.cam_from_world.centre()).norm() == 0)
-        throw pg::InputError(o.cameras, "cameras '" + ids.reference + "' and '" + ids.other +
-                                            "' have the same centre: no baseline to triangulate");
       const fs::path ref_path = image_path(o.cameras, input.reference);
       const fs::path other_path = image_path(o.cameras, input.other);
       frame.input(ref_path);

@@ -95,6 +95,9 @@ std::vector<MergeInput> list_inputs(cli::Frame& frame, const InputOptions& o) {
   for (const auto& spec : o.depth) {
     auto [path, weight] = split_weight(spec);
     frame.input(path);
+    // Every map's header now, so that a wrong file fails before the others are integrated; only a
+    // file that is not a pg depth map is read in full, for the reader to say what is wrong with it.
+    if (!is_pg_depth_exr(path)) read_depth_exr(path);
     MergeInput in;
     in.kind = InputKind::depth_exr;
     in.path = path;
