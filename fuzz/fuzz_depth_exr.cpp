@@ -4,6 +4,7 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const auto path = pg::fuzz::write_scratch(data, size, ".exr");
+  pg::fuzz::read_accepting_input_errors(path, [](const auto& p) { pg::read_depth_exr_header(p); });
   pg::fuzz::read_accepting_input_errors(path, [](const auto& p) { pg::read_depth_exr(p); });
   // A foreign depth image must match the given camera's size; the seed depth-8x6.exr does.
   pg::Camera camera;

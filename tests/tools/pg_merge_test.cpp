@@ -110,13 +110,16 @@ TEST(PgMerge, BadInputsAreClearErrors) {
   EXPECT_EQ(r.exit_code, 3);
   EXPECT_NE(r.stderr_text.find("plain.exr"), std::string::npos) << r.stderr_text;
   EXPECT_EQ(r.stderr_text.find("integrated 1/2"), std::string::npos) << r.stderr_text;
-  // A mask of the wrong size.
+  // A mask of the wrong size, the second map's: found before the first map is integrated.
+  const auto two = write_depth_maps(sphere_scene(), dir / "two", 2);
   fs::create_directories(dir / "masks");
-  write_image(dir / "masks" / "view_0.png", cv::Mat1b(10, 10, std::uint8_t(0)));
+  write_image(dir / "masks" / "view_1.png", cv::Mat1b(10, 10, std::uint8_t(0)));
   r = run_tool("pg-merge", {"volume", "--voxel-size", "0.03", "--out", (dir / "o.ply").string(), "--masks",
-                            (dir / "masks").string(), "--depth", depth[0]});
+                            (dir / "masks").string(), "--depth", two[0], two[1]});
   EXPECT_EQ(r.exit_code, 3);
-  EXPECT_NE(r.stderr_text.find("view_0.png: mask is 10x10"), std::string::npos) << r.stderr_text;
+  EXPECT_NE(r.stderr_text.find("view_1.png: mask is 10x10 but the depth map"), std::string::npos)
+      << r.stderr_text;
+  EXPECT_EQ(r.stderr_text.find("integrated 1/2"), std::string::npos) << r.stderr_text;
   // A voxel size that needs more memory than allowed: exit 5 before allocating.
   r = run_tool("pg-merge", {"volume", "--voxel-size", "0.001", "--max-memory", "16M", "--out",
                             (dir / "o.ply").string(), "--depth", depth[0]});

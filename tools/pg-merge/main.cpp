@@ -3,6 +3,7 @@
 // from a range of inputs, `combine` sums partials into the result of a single run.
 #include <chrono>
 #include <iostream>
+#include <optional>
 
 #include "common/cli.h"
 #include "pg/core/error.h"
@@ -10,6 +11,8 @@
 #include "pg/core/run_report.h"
 #include "pg/fusion/merge_inputs.h"
 #include "pg/fusion/point_surface.h"
+#include "pg/image/depth_exr.h"
+#include "pg/image/image_io.h"
 #include "pg/mesh/mesh_io.h"
 #include "pg/mesh/point_cloud.h"
 
@@ -79,9 +82,9 @@ Eigen::Vector3d vector3(const std::vector<double>& v) {
 }
 
 // The colour image of a depth EXR in --images: the camera's image file name, else <stem>.png/.jpg.
-fs::path color_for(const fs::path& images_dir, const fs::path& depth_path, const DepthMap& map) {
+fs::path color_for(const fs::path& images_dir, const fs::path& depth_path, const Camera& camera) {
   std::vector<fs::path> candidates;
-  if (!map.camera.image.empty()) candidates.push_back(images_dir / fs::path(map.camera.image).filename());
+  if (!camera.image.empty()) candidates.push_back(images_dir / fs::path(camera.image).filename());
   for (const char* ext : {".png", ".jpg", ".jpeg", ".exr"})
     candidates.push_back(images_dir / (depth_path.stem().string() + ext));
   for (const auto& c : candidates)
@@ -95,18 +98,24 @@ std::vector<MergeInput> list_inputs(cli::Frame& frame, const InputOptions& o) {
   for (const auto& spec : o.depth) {
     auto [path, weight] = split_weight(spec);
     frame.input(path);
-    // Every map's header now, so that a wrong file fails before the others are integrated; only a
-    // file that is not a pg depth map is read in full, for the reader to say what is wrong with it.
-    if (!is_pg_depth_exr(path)) read_depth_exr(path);
+    // Every map's header and mask size now, so that a wrong file fails before the others are
+    // integrated.
+    const Camera camera = read_depth_exr_header(path).camera;
     MergeInput in;
     in.kind = InputKind::depth_exr;
     in.path = path;
     in.multiplier = weight;
     if (!o.masks_dir.empty()) {
       const fs::path mask = fs::path(o.masks_dir) / (path.stem().string() + ".png");
-      if (fs::exists(mask)) in.mask = mask;
+      if (fs::exists(mask)) {
+        const std::optional<cv::Size> size = peek_image_size(mask);
+        if (size && (size->width != camera.width || size->height != camera.height))
+          throw InputError(mask, str("mask is ", size->width, "x", size->height, " but the depth map ",
+                                     path.string(), " is ", camera.width, "x", camera.height));
+        in.mask = mask;
+      }
     }
-    if (!o.images_dir.empty()) in.color = color_for(o.images_dir, path, read_depth_exr(path));
+    if (!o.images_dir.empty()) in.color = color_for(o.images_dir, path, camera);
     inputs.push_back(in);
   }
   if (!o.rgbd_cameras.empty() || !o.rgbd_poses.empty()) {

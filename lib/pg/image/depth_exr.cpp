@@ -163,6 +163,42 @@ void write_depth_exr(const fs::path& path, const DepthMap& map) {
   write_atomically(path, [&](const fs::path& tmp) { exr::write_slices(tmp, header, slices); });
 }
 
+namespace {
+
+// The attributes read_depth_exr checks before it reads any pixel.
+DepthExrHeader depth_exr_header(const fs::path& path, const Imf::Header& header) {
+  check_format_attributes(path, header);
+  DepthExrHeader out;
+  const std::string& kind = required_string(path, header, attr_kind);
+  try {
+    out.kind = depth_kind_from_string(kind);
+  } catch (const UsageError&) {
+    throw InputError(path, str(attr_kind, " is '", kind, "', expected perspective_z or spherical_range"));
+  }
+  out.camera = camera_from_json(parse_json_attribute(path, header, attr_camera), path, attr_camera);
+  out.provenance = provenance_from_json(parse_json_attribute(path, header, attr_provenance));
+  const Imath::Box2i window = header.dataWindow();
+  const cv::Size size(window.max.x - window.min.x + 1, window.max.y - window.min.y + 1);
+  if (out.camera.width != size.width || out.camera.height != size.height)
+    throw InputError(path, str("camera in ", attr_camera, " is ", out.camera.width, " x ", out.camera.height,
+                               " but the data window is ", size.width, " x ", size.height));
+  if (!kind_fits_camera(out.kind, out.camera))
+    throw InputError(path, "perspective_z depth with an equirectangular camera");
+  exr::check_float_channel(path, header, "Z");
+  const Imf::ChannelList& channels = header.channels();
+  for (const char* optional : {"confidence", "mask"})
+    if (channels.findChannel(optional)) exr::check_float_channel(path, header, optional);
+  const auto normals_present = std::count_if(normal_channels.begin(), normal_channels.end(),
+                                             [&](const std::string& n) { return channels.findChannel(n); });
+  if (normals_present != 0 && normals_present != 3)
+    throw InputError(path, "incomplete normals: N.x, N.y and N.z must all be present or all absent");
+  if (normals_present == 3)
+    for (const std::string& n : normal_channels) exr::check_float_channel(path, header, n);
+  return out;
+}
+
+}  // namespace
+
 bool is_pg_depth_exr(const fs::path& path) {
   try {
     const std::unique_ptr<Imf::InputFile> file = exr::open(path);
@@ -172,51 +208,32 @@ bool is_pg_depth_exr(const fs::path& path) {
   }
 }
 
+DepthExrHeader read_depth_exr_header(const fs::path& path) {
+  return depth_exr_header(path, exr::open(path)->header());
+}
+
 DepthMap read_depth_exr(const fs::path& path) {
   std::unique_ptr<Imf::InputFile> file = exr::open(path);
   const Imf::Header& header = file->header();
-  check_format_attributes(path, header);
-
+  DepthExrHeader parsed = depth_exr_header(path, header);
   DepthMap map;
-  const std::string& kind = required_string(path, header, attr_kind);
-  try {
-    map.kind = depth_kind_from_string(kind);
-  } catch (const UsageError&) {
-    throw InputError(path, str(attr_kind, " is '", kind, "', expected perspective_z or spherical_range"));
-  }
-  map.camera = camera_from_json(parse_json_attribute(path, header, attr_camera), path, attr_camera);
-  map.provenance = provenance_from_json(parse_json_attribute(path, header, attr_provenance));
-  const Imath::Box2i window = header.dataWindow();
-  const cv::Size size(window.max.x - window.min.x + 1, window.max.y - window.min.y + 1);
-  if (map.camera.width != size.width || map.camera.height != size.height)
-    throw InputError(path, str("camera in ", attr_camera, " is ", map.camera.width, " x ", map.camera.height,
-                               " but the data window is ", size.width, " x ", size.height));
-  if (!kind_fits_camera(map.kind, map.camera))
-    throw InputError(path, "perspective_z depth with an equirectangular camera");
-
+  map.kind = parsed.kind;
+  map.camera = std::move(parsed.camera);
+  map.provenance = std::move(parsed.provenance);
+  const cv::Size size(map.camera.width, map.camera.height);
   const Imf::ChannelList& channels = header.channels();
-  exr::check_float_channel(path, header, "Z");
   map.depth.create(size, CV_32FC1);
   std::vector<exr::Slice> slices = {{"Z", map.depth, 0}};
   if (channels.findChannel("confidence")) {
-    exr::check_float_channel(path, header, "confidence");
     map.confidence.create(size, CV_32FC1);
     slices.push_back({"confidence", map.confidence, 0});
   }
-  const auto normals_present = std::count_if(normal_channels.begin(), normal_channels.end(),
-                                             [&](const std::string& n) { return channels.findChannel(n); });
-  if (normals_present != 0 && normals_present != 3)
-    throw InputError(path, "incomplete normals: N.x, N.y and N.z must all be present or all absent");
-  if (normals_present == 3) {
+  if (channels.findChannel(normal_channels[0])) {  // all three: depth_exr_header checked
     map.normals.create(size, CV_32FC3);
-    for (int i = 0; i < 3; ++i) {
-      exr::check_float_channel(path, header, normal_channels[i]);
-      slices.push_back({normal_channels[i], map.normals, i});
-    }
+    for (int i = 0; i < 3; ++i) slices.push_back({normal_channels[i], map.normals, i});
   }
   cv::Mat mask_float;
   if (channels.findChannel("mask")) {
-    exr::check_float_channel(path, header, "mask");
     mask_float.create(size, CV_32FC1);
     slices.push_back({"mask", mask_float, 0});
   }

@@ -38,6 +38,16 @@ struct DepthMap {
 // window, an unknown depth kind or perspective_z with an equirectangular camera.
 DepthMap read_depth_exr(const std::filesystem::path& path);
 
+// What a pg depth EXR's header says, read with every check read_depth_exr makes before it reads pixels
+// (format, version, kind, camera, data window, channel types), without reading any: for checking a
+// stage's inputs up front. Throws InputError(path, problem) as read_depth_exr does.
+struct DepthExrHeader {
+  DepthKind kind = DepthKind::perspective_z;
+  Camera camera;
+  Provenance provenance;
+};
+DepthExrHeader read_depth_exr_header(const std::filesystem::path& path);
+
 // True when `path` is an OpenEXR file whose header names a pg format (a depth map); false for any other
 // file, a damaged one included (its reader says what is wrong). Reads the header only, with the same
 // checks before allocating as read_depth_exr.

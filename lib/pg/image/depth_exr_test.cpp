@@ -113,9 +113,10 @@ std::map<std::string, std::string> pg_header(const Camera& camera = test_camera(
           {"pg/provenance", R"({"tool":"crafted"})"}};
 }
 
-void expect_rejected(const fs::path& path, const std::string& fragment) {
+template <typename Reader>
+void expect_refused_by(Reader read, const fs::path& path, const std::string& fragment) {
   try {
-    read_depth_exr(path);
+    read(path);
     ADD_FAILURE() << "no error for " << path << " (expected '" << fragment << "')";
   } catch (const InputError& e) {
     EXPECT_EQ(e.file(), path);
@@ -123,10 +124,24 @@ void expect_rejected(const fs::path& path, const std::string& fragment) {
   }
 }
 
+void expect_rejected(const fs::path& path, const std::string& fragment) {
+  expect_refused_by(read_depth_exr, path, fragment);
+}
+
+// A problem in the header: the header reader refuses the file with the same message.
+void expect_header_rejected(const fs::path& path, const std::string& fragment) {
+  expect_refused_by(read_depth_exr, path, fragment);
+  expect_refused_by(read_depth_exr_header, path, fragment);
+}
+
 TEST(DepthExr, RoundTripKeepsEveryChannelBitExactAndTheHeader) {
   testing::TempDir dir;
   const DepthMap map = test_map();
   write_depth_exr(dir / "depth.exr", map);
+  const DepthExrHeader header = read_depth_exr_header(dir / "depth.exr");
+  EXPECT_EQ(header.kind, DepthKind::spherical_range);
+  EXPECT_EQ(camera_to_json(header.camera), camera_to_json(map.camera));
+  EXPECT_EQ(to_json(header.provenance), to_json(map.provenance));
   const DepthMap back = read_depth_exr(dir / "depth.exr");
   EXPECT_TRUE(bit_identical(back.depth, map.depth));  // NaN pattern, denormals and all
   EXPECT_TRUE(std::isnan(back.depth.at<float>(3, 5)));
@@ -215,9 +230,9 @@ TEST(DepthExr, HalfChannelsAreConvertedToFloat) {
 
 TEST(DepthExr, RejectsFilesThatDoNotFollowTheFormat) {
   testing::TempDir dir;
-  expect_rejected(dir / "absent.exr", "does not exist");
+  expect_header_rejected(dir / "absent.exr", "does not exist");
   testing::write_text(dir / "text.exr", "not an EXR at all");
-  expect_rejected(dir / "text.exr", "not a readable OpenEXR file");
+  expect_header_rejected(dir / "text.exr", "not a readable OpenEXR file");
 
   RawExr raw;
   raw.strings = pg_header();
@@ -227,55 +242,60 @@ TEST(DepthExr, RejectsFilesThatDoNotFollowTheFormat) {
     copy.write(dir / name);
     return dir / name;
   };
-  expect_rejected(variant("plain.exr", [](RawExr& r) { r.strings.clear(); }), "no pg/format");
-  expect_rejected(variant("format.exr", [](RawExr& r) { r.strings["pg/format"] = "pg-mesh"; }),
-                  "expected 'pg-depth-exr'");
-  expect_rejected(variant("version.exr", [](RawExr& r) { r.strings["pg/version"] = "99"; }),
-                  "unsupported pg/version '99'");
-  expect_rejected(variant("version-text.exr", [](RawExr& r) { r.strings["pg/version"] = "1.0"; }),
-                  "unsupported pg/version '1.0'");
-  expect_rejected(variant("no-version.exr", [](RawExr& r) { r.strings.erase("pg/version"); }), "pg/version");
-  expect_rejected(variant("no-z.exr",
-                          [](RawExr& r) {
-                            r.channels = {{"Y", Imf::FLOAT}};
-                          }),
-                  "missing channel 'Z'");
-  expect_rejected(variant("uint.exr", [](RawExr& r) { r.channels = {{"Z", Imf::UINT}}; }), "pixel type UINT");
-  expect_rejected(variant("normals.exr",
-                          [](RawExr& r) {
-                            r.channels = {{"Z", Imf::FLOAT}, {"N.x", Imf::FLOAT}};
-                          }),
-                  "incomplete normals");
-  expect_rejected(
+  expect_header_rejected(variant("plain.exr", [](RawExr& r) { r.strings.clear(); }), "no pg/format");
+  expect_header_rejected(variant("format.exr", [](RawExr& r) { r.strings["pg/format"] = "pg-mesh"; }),
+                         "expected 'pg-depth-exr'");
+  expect_header_rejected(variant("version.exr", [](RawExr& r) { r.strings["pg/version"] = "99"; }),
+                         "unsupported pg/version '99'");
+  expect_header_rejected(variant("version-text.exr", [](RawExr& r) { r.strings["pg/version"] = "1.0"; }),
+                         "unsupported pg/version '1.0'");
+  expect_header_rejected(variant("no-version.exr", [](RawExr& r) { r.strings.erase("pg/version"); }),
+                         "pg/version");
+  expect_header_rejected(variant("no-z.exr",
+                                 [](RawExr& r) {
+                                   r.channels = {{"Y", Imf::FLOAT}};
+                                 }),
+                         "missing channel 'Z'");
+  expect_header_rejected(variant("uint.exr",
+                                 [](RawExr& r) {
+                                   r.channels = {{"Z", Imf::UINT}};
+                                 }),
+                         "pixel type UINT");
+  expect_header_rejected(variant("normals.exr",
+                                 [](RawExr& r) {
+                                   r.channels = {{"Z", Imf::FLOAT}, {"N.x", Imf::FLOAT}};
+                                 }),
+                         "incomplete normals");
+  expect_header_rejected(
       variant("size.exr",
               [](RawExr& r) { r.strings["pg/camera"] = camera_to_json(test_camera(9, 6)).dump(); }),
       "data window is 8 x 6");
-  expect_rejected(variant("json.exr", [](RawExr& r) { r.strings["pg/camera"] = "{\"id\": "; }),
-                  "pg/camera is not a JSON object");
-  expect_rejected(variant("model.exr",
-                          [](RawExr& r) {
-                            nlohmann::json camera = camera_to_json(test_camera());
-                            camera["model"] = "orthographic";
-                            r.strings["pg/camera"] = camera.dump();
-                          }),
-                  "pg/camera");
-  expect_rejected(variant("kind.exr", [](RawExr& r) { r.strings["pg/depthKind"] = "disparity"; }),
-                  "pg/depthKind is 'disparity'");
-  expect_rejected(variant("provenance.exr", [](RawExr& r) { r.strings["pg/provenance"] = "[1, 2]"; }),
-                  "pg/provenance is not a JSON object");
+  expect_header_rejected(variant("json.exr", [](RawExr& r) { r.strings["pg/camera"] = "{\"id\": "; }),
+                         "pg/camera is not a JSON object");
+  expect_header_rejected(variant("model.exr",
+                                 [](RawExr& r) {
+                                   nlohmann::json camera = camera_to_json(test_camera());
+                                   camera["model"] = "orthographic";
+                                   r.strings["pg/camera"] = camera.dump();
+                                 }),
+                         "pg/camera");
+  expect_header_rejected(variant("kind.exr", [](RawExr& r) { r.strings["pg/depthKind"] = "disparity"; }),
+                         "pg/depthKind is 'disparity'");
+  expect_header_rejected(variant("provenance.exr", [](RawExr& r) { r.strings["pg/provenance"] = "[1, 2]"; }),
+                         "pg/provenance is not a JSON object");
   // Provenance is informational: a field of the wrong type is skipped, not a reason to refuse the depth.
   EXPECT_EQ(read_depth_exr(
                 variant("provenance-type.exr",
                         [](RawExr& r) { r.strings["pg/provenance"] = R"({"tool": 5, "version": "1"})"; }))
                 .provenance.version,
             "1");
-  expect_rejected(variant("equirect.exr",
-                          [](RawExr& r) {
-                            Camera camera = test_camera();
-                            camera.model = CameraModel::equirectangular;
-                            r.strings["pg/camera"] = camera_to_json(camera).dump();
-                          }),
-                  "perspective_z depth with an equirectangular camera");
+  expect_header_rejected(variant("equirect.exr",
+                                 [](RawExr& r) {
+                                   Camera camera = test_camera();
+                                   camera.model = CameraModel::equirectangular;
+                                   r.strings["pg/camera"] = camera_to_json(camera).dump();
+                                 }),
+                         "perspective_z depth with an equirectangular camera");
 }
 
 TEST(DepthExr, RejectsHugeDataWindowsBeforeAllocating) {
