@@ -70,27 +70,42 @@ fs::path image_path(const fs::path& cameras_file, const pg::Camera& camera) {
   return image.is_absolute() ? image : cameras_file.parent_path() / image;
 }
 
-cv::Mat1b read_mask(const Options& o, const pg::Camera& camera) {
+// The camera's mask in --masks; empty when there is none for it.
+fs::path mask_path(const Options& o, const pg::Camera& camera) {
   if (o.masks.empty()) return {};
-  const fs::path path = fs::path(o.masks) / (camera.id + ".png");
-  if (!fs::exists(path)) return {};
-  cv::Mat1b mask = pg::read_image(path, pg::ReadMode::unchanged);
-  if (mask.cols != camera.width || mask.rows != camera.height)
-    throw pg::InputError(path, pg::str("mask is ", mask.cols, "x", mask.rows, " but camera '", camera.id,
+  fs::path path = fs::path(o.masks) / (camera.id + ".png");
+  return fs::exists(path) ? path : fs::path();
+}
+
+// Throws unless an image or mask (`what`) of `size` has its camera's size.
+void require_camera_size(const fs::path& path, cv::Size size, const pg::Camera& camera, const char* what) {
+  if (size.width != camera.width || size.height != camera.height)
+    throw pg::InputError(path, pg::str(what, " is ", size.width, "x", size.height, " but camera '", camera.id,
                                        "' is ", camera.width, "x", camera.height));
+}
+
+cv::Mat1b read_mask(const Options& o, const pg::Camera& camera) {
+  const fs::path path = mask_path(o, camera);
+  if (path.empty()) return {};
+  cv::Mat1b mask = pg::read_image(path, pg::ReadMode::unchanged);
+  require_camera_size(path, mask.size(), camera, "mask");
   return mask;
+}
+
+cv::Mat read_view(const fs::path& path, const pg::Camera& camera) {
+  cv::Mat image = pg::read_image(path);
+  require_camera_size(path, image.size(), camera, "image");
+  return image;
 }
 
 // Every pair's inputs checked before any pair is computed, from the files' headers, so that a farm
 // chunk with one wrong image fails in seconds rather than after its earlier pairs: the cameras have a
 // baseline, the images and masks exist and have their camera's size. Formats whose header cannot be
-// read without decoding are checked again when decoded.
+// read without decoding are checked when decoded (read_view, read_mask).
 void check_pair_inputs(const Options& o, const pg::CameraSet& set, const std::vector<PairIds>& pairs) {
-  const auto check_size = [](const fs::path& path, const pg::Camera& camera, const char* what) {
-    const std::optional<cv::Size> size = pg::peek_image_size(path);
-    if (size && (size->width != camera.width || size->height != camera.height))
-      throw pg::InputError(path, pg::str(what, " is ", size->width, "x", size->height, " but camera '",
-                                         camera.id, "' is ", camera.width, "x", camera.height));
+  const auto check_header = [](const fs::path& path, const pg::Camera& camera, const char* what) {
+    if (const std::optional<cv::Size> size = pg::peek_image_size(path))
+      require_camera_size(path, *size, camera, what);
   };
   for (const PairIds& ids : pairs) {
     const pg::Camera& reference = *set.find(ids.reference);
@@ -99,20 +114,10 @@ void check_pair_inputs(const Options& o, const pg::CameraSet& set, const std::ve
       throw pg::InputError(o.cameras, "cameras '" + ids.reference + "' and '" + ids.other +
                                           "' have the same centre: no baseline to triangulate");
     for (const pg::Camera* camera : {&reference, &other}) {
-      check_size(image_path(o.cameras, *camera), *camera, "image");
-      if (o.masks.empty()) continue;
-      const fs::path mask = fs::path(o.masks) / (camera->id + ".png");
-      if (fs::exists(mask)) check_size(mask, *camera, "mask");
+      check_header(image_path(o.cameras, *camera), *camera, "image");
+      if (const fs::path mask = mask_path(o, *camera); !mask.empty()) check_header(mask, *camera, "mask");
     }
   }
-}
-
-cv::Mat read_view(const fs::path& path, const pg::Camera& camera) {
-  cv::Mat image = pg::read_image(path);
-  if (image.cols != camera.width || image.rows != camera.height)
-    throw pg::InputError(path, pg::str("image is ", image.cols, "x", image.rows, " but camera '", camera.id,
-                                       "' is ", camera.width, "x", camera.height));
-  return image;
 }
 
 // --max-memory: every pair's estimate (from its cameras, before any image is decoded) must fit, so a
