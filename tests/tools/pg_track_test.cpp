@@ -176,6 +176,31 @@ TEST_F(PgTrack, AMemoryBudgetRunsOneDetectionAtATimeWithTheSameOutputs) {
   expect_same_outputs(free, budget);
 }
 
+// KLT with the same budget: the features and one detection fit, but not every working image within
+// half of it, so the frames stream through the tracker two at a time and are decoded again for the
+// SIFT loop matching and the position refinement; the outputs are the same as with them all held.
+TEST_F(PgTrack, AMemoryBudgetStreamsKltFramesWithTheSameOutputs) {
+  const auto metrics = [&](const TempDir& dir, std::vector<std::string> extra) {
+    std::vector<std::string> args = {"--images",  (scene() / "images").string(),
+                                     "--range",   "0:8",
+                                     "--matcher", "klt",
+                                     "--out",     dir.path().string(),
+                                     "--report",  (dir / "report.json").string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto r = run_tool("pg-track", args);
+    EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
+    return pg::read_json_file(dir / "report.json")["metrics"];
+  };
+  TempDir free, budget;
+  const nlohmann::json free_metrics = metrics(free, {});
+  const nlohmann::json budget_metrics = metrics(budget, {"--max-memory", "140M"});
+  EXPECT_FALSE(free_metrics.value("klt_frames_streamed", true));
+  EXPECT_TRUE(free_metrics.value("images_held", false));
+  EXPECT_TRUE(budget_metrics.value("klt_frames_streamed", false));
+  EXPECT_FALSE(budget_metrics.value("images_held", true));
+  expect_same_outputs(free, budget);
+}
+
 // pg-track makes no random choice (descriptor matching is exhaustive, OpenCV's RANSAC seeds itself):
 // another --seed gives the same tracks and cameras, and they meet the targets.
 TEST_F(PgTrack, TheOutputsDoNotDependOnTheSeed) {

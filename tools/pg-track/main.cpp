@@ -243,8 +243,8 @@ int main(int argc, char** argv) {
     co.loop_matching = !o.no_loops;
     co.refine_positions = !o.no_refine_positions;
     co.memory_budget = pg::cli::memory_budget();
-    // Before any image is decoded: a budget too small for the features and one SIFT detection (and,
-    // for KLT, every working image) fails here.
+    // Before any image is decoded: a budget too small for the features and one SIFT detection (or
+    // KLT tracking step) fails here.
     pg::cli::require_memory(pg::correspondence_memory_bytes(frames, co),
                             pg::str("tracking ", frames.size(), " images",
                                     co.downscale > 1 ? pg::str(" at --downscale ", co.downscale) : ""));

@@ -92,11 +92,12 @@ WorkingFrame load_frame(const SequenceFrame& frame, double downscale, bool with_
 
 // What frames cost in memory, from their file headers: what build_correspondences may keep (the 8-bit
 // working images and masks, and the most features detect_sift keeps), what load_frame holds while it
-// decodes one frame (the file decoded, its float grey and 8-bit copies, and the same for a mask), and
-// one SIFT detection with the image it searches. For several frames: the sums of what is kept, the
-// largest decode and detection.
+// decodes one frame (the file decoded, its float grey and 8-bit copies, and the same for a mask), one
+// SIFT detection with the image it searches, and KLT tracking into the frame (the frame before and
+// this one, one of them being decoded, and what tracking builds from them). For several frames: the
+// sums of what is kept, the largest decode, detection and tracking step.
 struct FrameMemory {
-  std::uint64_t images = 0, features = 0, load = 0, detection = 0;
+  std::uint64_t images = 0, features = 0, load = 0, detection = 0, tracking = 0;
   int unknown = 0;  // frames whose size no header told (left out of the rest)
 };
 
@@ -111,6 +112,7 @@ FrameMemory frame_memory(const SequenceFrame& frame, const CorrespondenceOptions
   m.features = options.max_features * sift_feature_bytes;
   m.load = std::uint64_t(full->area()) * decoded * planes;
   m.detection = sift_detection_bytes(working) + m.images;
+  m.tracking = 2 * m.images + m.load + klt_tracking_bytes(working);
   return m;
 }
 
@@ -122,6 +124,7 @@ FrameMemory frames_memory(const std::vector<SequenceFrame>& frames, const Corres
     total.features += m.features;
     total.load = std::max(total.load, m.load);
     total.detection = std::max(total.detection, m.detection);
+    total.tracking = std::max(total.tracking, m.tracking);
     total.unknown += m.unknown;
   }
   return total;
@@ -351,9 +354,9 @@ int enforce_track_consistency(std::vector<Track>& tracks, const std::vector<Veri
 std::uint64_t correspondence_memory_bytes(const std::vector<SequenceFrame>& frames,
                                           const CorrespondenceOptions& options) {
   const FrameMemory m = frames_memory(frames, options);
-  // SIFT need not keep the working images (see build_correspondences); KLT and unplanned frames do.
-  const bool streamable = options.method == CorrespondenceMethod::sift && m.unknown == 0;
-  return (streamable ? 0 : m.images) + m.features + std::max(m.load, m.detection);
+  // The working images need not be kept (see build_correspondences) unless a frame's size is unknown.
+  const bool klt = options.method != CorrespondenceMethod::sift;
+  return (m.unknown == 0 ? 0 : m.images) + m.features + std::max({m.load, m.detection, klt ? m.tracking : 0});
 }
 
 CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& frames,
@@ -365,15 +368,22 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
   const FrameMemory planned = frames_memory(frames, options);
   const int threads = std::min(n, thread_count());
   const bool klt = options.method != CorrespondenceMethod::sift;
-  // KLT follows points through all frames at once, and a frame whose header pg cannot read has no
-  // size to plan with: then every frame is decoded up front. Otherwise each is decoded where its
-  // features are found.
-  const bool decode_up_front = klt || planned.unknown > 0;
+  // KLT follows points through the frames in order. It keeps every working image when they fit in
+  // half the budget beside the features and its largest step, as SIFT keeps them below; then they
+  // are decoded up front, in parallel. Otherwise it streams them, two at a time, and they are
+  // decoded again where they are needed next. A frame whose header pg cannot read has no size to
+  // plan with: then every frame is decoded up front. Otherwise SIFT decodes each where its features
+  // are found.
+  const bool stream_klt =
+      klt && planned.unknown == 0 && budget > 0 &&
+      planned.images + planned.features + std::max({planned.load, planned.detection, planned.tracking}) >
+          budget / 2;
+  const bool decode_up_front = (klt && !stream_klt) || planned.unknown > 0;
   std::vector<WorkingFrame> work(n);
   if (decode_up_front)
     parallel_for_bounded(n, tasks_that_fit(budget, planned.images + planned.features, planned.load, threads),
                          [&](int f) { work[f] = load_frame(frames[f], options.downscale); });
-  bool images_held = true;  // the working images stay in memory for the position refinement
+  bool images_held = !stream_klt;  // the working images stay in memory for the position refinement
 
   CorrespondenceResult result;
   result.tracks.method = to_string(options.method);
@@ -384,12 +394,21 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
   std::vector<PointLink> links;
   std::vector<int> continued(n, 0);
   if (klt) {
-    std::vector<cv::Mat> grays, masks;
-    for (const WorkingFrame& w : work) grays.push_back(w.gray8), masks.push_back(w.mask);
     ScopedTimer timer("klt tracking");
     KltOptions ko = options.klt;
     ko.redetect_every_frame = options.method == CorrespondenceMethod::shi_tomasi;
-    const auto tracked = track_klt(grays, masks, ko, &continued);
+    RunReport::global().set_metric("klt_frames_streamed", stream_klt);
+    if (stream_klt) log::info("klt: streaming the frames (memory budget)");
+    const auto tracked = track_klt(
+        n,
+        [&](int f) {
+          if (!stream_klt) return KltFrame{work[f].gray8, work[f].mask};
+          work[f] = load_frame(frames[f], options.downscale);
+          const KltFrame frame{work[f].gray8, work[f].mask};
+          work[f].gray8.release(), work[f].mask.release();  // the frame's size and scale stay
+          return frame;
+        },
+        ko, &continued);
     std::vector<std::pair<int, int>> last_seen;  // track id -> (frame, index)
     for (int f = 0; f < n; ++f)
       for (const KltPoint& p : tracked[f]) {
@@ -433,7 +452,8 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
     }
     const std::uint64_t features_held = std::uint64_t(n) * options.max_features * sift_feature_bytes;
     int at_once = tasks_that_fit(budget, images + features_held, task, threads);
-    images_held = decode_up_front || budget == 0 || images + features_held + at_once * task <= budget / 2;
+    images_held = !stream_klt &&
+                  (decode_up_front || budget == 0 || images + features_held + at_once * task <= budget / 2);
     if (!images_held) at_once = tasks_that_fit(budget, features_held, task, threads);
     RunReport::global().set_metric("sift_detections_at_once", at_once);
     if (at_once < threads)

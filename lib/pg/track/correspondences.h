@@ -48,8 +48,8 @@ struct CorrespondenceOptions {
   // system has available bounds it instead. Frames are decoded and SIFT detections run (each
   // sift_detection_bytes, about 250 bytes a working pixel) at most as many at a time as fit beside the
   // working images held, and at least one. When those and one detection would take more than half the
-  // budget, the working images are not kept after detection but decoded again for the position
-  // refinement (SIFT mode; KLT needs every frame at once). The results do not depend on it.
+  // budget, the working images are not kept: SIFT decodes them again for the position refinement,
+  // and KLT also streams them through the tracker two at a time. The results do not depend on it.
   std::uint64_t memory_budget = 0;
 };
 
@@ -76,9 +76,10 @@ struct CorrespondenceResult {
 };
 
 // The least memory build_correspondences needs for `frames`, from their file headers: every frame's
-// features, and one frame being decoded or one SIFT detection with its image. KLT modes also hold
-// every working image, as do runs with a frame whose header pg cannot read (peek_image_size); such a
-// frame is itself left out. Throws InputError for a missing or corrupt file.
+// features, and the largest of one frame being decoded, one SIFT detection with its image, and (KLT
+// modes) one tracking step with its two frames. Runs with a frame whose header pg cannot read
+// (peek_image_size) also hold every working image; such a frame is itself left out. Throws
+// InputError for a missing or corrupt file.
 std::uint64_t correspondence_memory_bytes(const std::vector<SequenceFrame>& frames,
                                           const CorrespondenceOptions& options);
 

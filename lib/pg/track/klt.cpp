@@ -1,5 +1,7 @@
 #include "pg/track/klt.h"
 
+#include <cstdint>
+
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
@@ -29,16 +31,28 @@ std::vector<cv::Point2f> detect_corners(const cv::Mat& gray8, const cv::Mat& mas
 std::vector<std::vector<KltPoint>> track_klt(const std::vector<cv::Mat>& gray8,
                                              const std::vector<cv::Mat>& masks, const KltOptions& options,
                                              std::vector<int>* continued) {
-  std::vector<std::vector<KltPoint>> frames(gray8.size());
-  if (continued) continued->assign(gray8.size(), 0);
-  if (gray8.empty()) return frames;
-  auto mask_of = [&](std::size_t f) { return f < masks.size() ? masks[f] : cv::Mat(); };
+  return track_klt(
+      static_cast<int>(gray8.size()),
+      [&](int f) {
+        return KltFrame{gray8[f], std::size_t(f) < masks.size() ? masks[f] : cv::Mat()};
+      },
+      options, continued);
+}
+
+std::vector<std::vector<KltPoint>> track_klt(int frame_count, const std::function<KltFrame(int)>& load,
+                                             const KltOptions& options, std::vector<int>* continued) {
+  std::vector<std::vector<KltPoint>> frames(frame_count);
+  if (continued) continued->assign(frame_count, 0);
+  if (frame_count == 0) return frames;
+  KltFrame previous = load(0);
   int next_id = 0;
-  for (const cv::Point2f& c : detect_corners(gray8[0], mask_of(0), {}, options.max_corners, options))
+  for (const cv::Point2f& c : detect_corners(previous.gray8, previous.mask, {}, options.max_corners, options))
     frames[0].push_back({next_id++, c});
   const cv::Size window(options.window, options.window);
   const cv::TermCriteria criteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 30, 0.01);
-  for (std::size_t f = 1; f < gray8.size(); ++f) {
+  for (int f = 1; f < frame_count; ++f) {
+    const KltFrame current = load(f);
+    const cv::Mat& gray = current.gray8;
     const std::vector<KltPoint>& prev = frames[f - 1];
     std::vector<cv::Point2f> from, to, back;
     for (const KltPoint& p : prev) from.push_back(p.position);
@@ -46,20 +60,20 @@ std::vector<std::vector<KltPoint>> track_klt(const std::vector<cv::Mat>& gray8,
     if (!from.empty()) {
       std::vector<unsigned char> status, status_back;
       std::vector<float> error;
-      cv::calcOpticalFlowPyrLK(gray8[f - 1], gray8[f], from, to, status, error, window, options.levels,
+      cv::calcOpticalFlowPyrLK(previous.gray8, gray, from, to, status, error, window, options.levels,
                                criteria);
       back = from;
-      cv::calcOpticalFlowPyrLK(gray8[f], gray8[f - 1], to, back, status_back, error, window, options.levels,
+      cv::calcOpticalFlowPyrLK(gray, previous.gray8, to, back, status_back, error, window, options.levels,
                                criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
       std::vector<cv::Point2f> a, b;
       std::vector<int> index;
-      const cv::Mat mask = mask_of(f);
+      const cv::Mat& mask = current.mask;
       for (std::size_t i = 0; i < from.size(); ++i) {
         if (!status[i] || !status_back[i]) continue;
         const cv::Point2f d = back[i] - from[i];
         if (d.dot(d) > options.forward_backward_px * options.forward_backward_px) continue;
         const cv::Point2f& q = to[i];
-        if (q.x < 0 || q.y < 0 || q.x > gray8[f].cols - 1 || q.y > gray8[f].rows - 1) continue;
+        if (q.x < 0 || q.y < 0 || q.x > gray.cols - 1 || q.y > gray.rows - 1) continue;
         if (!mask.empty() && mask.at<unsigned char>(cvRound(q.y), cvRound(q.x)) == 0) continue;
         a.push_back(from[i]);
         b.push_back(q);
@@ -72,8 +86,7 @@ std::vector<std::vector<KltPoint>> track_klt(const std::vector<cv::Mat>& gray8,
     if (continued) (*continued)[f] = static_cast<int>(alive.size());
     if (options.redetect_every_frame) {
       std::vector<KltPoint> fresh_alive;
-      std::vector<cv::Point2f> corners =
-          detect_corners(gray8[f], mask_of(f), {}, options.max_corners, options);
+      std::vector<cv::Point2f> corners = detect_corners(gray, current.mask, {}, options.max_corners, options);
       std::vector<bool> used(corners.size(), false);
       // Snap each tracked point to the nearest fresh corner within snap_px.
       for (KltPoint& p : alive) {
@@ -102,12 +115,21 @@ std::vector<std::vector<KltPoint>> track_klt(const std::vector<cv::Mat>& gray8,
       alive = std::move(fresh_alive);
     } else if (alive.size() < static_cast<std::size_t>(options.max_corners * 0.8)) {
       const int missing = options.max_corners - static_cast<int>(alive.size());
-      for (const cv::Point2f& c : detect_corners(gray8[f], mask_of(f), alive, missing, options))
+      for (const cv::Point2f& c : detect_corners(gray, current.mask, alive, missing, options))
         alive.push_back({next_id++, c});
     }
     frames[f] = std::move(alive);
+    previous = current;
   }
   return frames;
+}
+
+std::uint64_t klt_tracking_bytes(cv::Size size) {
+  // The peak is the corner detector's: OpenCV's minimum-eigenvalue image, its derivative and
+  // covariance images (float), and the dilated copy goodFeaturesToTrack compares against, about 24.6
+  // bytes a pixel measured at 1600x1200 (45 MiB); Lucas-Kanade's pyramids take less.
+  constexpr std::uint64_t bytes_per_pixel = 26;
+  return bytes_per_pixel * std::uint64_t(size.area());
 }
 
 }  // namespace pg

@@ -1,6 +1,8 @@
 #pragma once
 // Corner tracking through an ordered sequence with pyramidal Lucas-Kanade, a forward-backward check
 // and a RANSAC fundamental-matrix check between consecutive frames.
+#include <cstdint>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -31,5 +33,20 @@ struct KltPoint {
 std::vector<std::vector<KltPoint>> track_klt(const std::vector<cv::Mat>& gray8,
                                              const std::vector<cv::Mat>& masks, const KltOptions& options,
                                              std::vector<int>* continued = nullptr);
+
+// One frame as the streaming track_klt takes it: its 8-bit grey image and its mask (may be empty).
+struct KltFrame {
+  cv::Mat gray8, mask;
+};
+
+// The same with the frames streamed instead of held: `load(f)` is called once per frame, in order,
+// and at most two frames are held at a time. The results are the same as above.
+std::vector<std::vector<KltPoint>> track_klt(int frame_count, const std::function<KltFrame(int)>& load,
+                                             const KltOptions& options,
+                                             std::vector<int>* continued = nullptr);
+
+// Bytes track_klt holds besides its two frames while it tracks into a `size` frame: the pyramids
+// and derivatives Lucas-Kanade builds, and the corner detector's eigenvalue images.
+std::uint64_t klt_tracking_bytes(cv::Size size);
 
 }  // namespace pg

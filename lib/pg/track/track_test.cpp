@@ -333,9 +333,37 @@ TEST(Features, SiftDetectionBytesCoverWhatADetectionTakes) {
   EXPECT_GT(counting.peak(), estimate * 17 / 20);
 }
 
+// KLT holds two frames at a time and what klt_tracking_bytes says it builds from them while it tracks;
+// the estimate must cover that, and not by so much that it wastes the budget. Both modes, since
+// Shi-Tomasi detects corners in every frame.
+TEST(Klt, TrackingBytesCoverWhatTrackingTakes) {
+  const cv::Mat base = blurred_noise(cv::Size(1600, 1200), 3);
+  cv::Mat shifted;
+  cv::warpAffine(base, shifted, cv::Mat(cv::Matx23d(1, 0, 3.5, 0, 1, -2.25)), base.size(), cv::INTER_CUBIC,
+                 cv::BORDER_REFLECT);
+  const std::vector<cv::Mat> frames{base, shifted, base};
+  for (bool redetect : {false, true}) {
+    KltOptions options;
+    options.redetect_every_frame = redetect;
+    cv::MatAllocator* standard = cv::Mat::getDefaultAllocator();
+    CountingMatAllocator counting(standard);
+    cv::Mat::setDefaultAllocator(&counting);
+    const auto tracked = track_klt(frames, {}, options);
+    cv::Mat::setDefaultAllocator(standard);
+    const std::uint64_t estimate = klt_tracking_bytes(base.size());
+    std::cout << "[ measured ] KLT on 1600x1200" << (redetect ? " (Shi-Tomasi)" : "") << ": "
+              << (counting.peak() >> 20) << " MiB of images at the peak, estimated " << (estimate >> 20)
+              << " MiB\n";
+    EXPECT_GT(tracked[2].size(), 1000u);
+    EXPECT_LE(counting.peak(), estimate);
+    EXPECT_GT(counting.peak(), estimate * 17 / 20);
+  }
+}
+
 // What a tool checks against --max-memory before decoding: every frame's features, and one SIFT
-// detection with the image it searches (here more than decoding one file). KLT keeps every working
-// image (8-bit, a byte a pixel); SIFT can decode them again when it refines positions.
+// detection with the image it searches (here more than decoding one file, or a KLT step). Neither
+// mode need keep the working images: SIFT decodes them again when it refines positions, KLT streams
+// them two at a time.
 TEST(Correspondences, MemoryNeededIsTheFeaturesAndOneDetection) {
   TempDir dir;
   std::vector<SequenceFrame> frames;
@@ -354,9 +382,48 @@ TEST(Correspondences, MemoryNeededIsTheFeaturesAndOneDetection) {
             features + 160 * 120 + sift_detection_bytes({160, 120}));
   options.method = CorrespondenceMethod::klt;
   EXPECT_EQ(correspondence_memory_bytes(frames, options),
-            3 * 160 * 120 + features + 160 * 120 + sift_detection_bytes({160, 120}));
+            features + 160 * 120 + sift_detection_bytes({160, 120}));
   frames.push_back({"missing", dir / "missing.png", {}});
   EXPECT_THROW(correspondence_memory_bytes(frames, options), InputError);
+}
+
+// Streamed, track_klt asks for each frame once, in order, and holds at most two: a frame's image is
+// released (its buffer no longer shared) by the time the frame two after it is asked for. The tracks
+// are those of the frames held.
+TEST(Klt, StreamedFramesAreLoadedOnceInOrderAndGiveTheSameTracks) {
+  const cv::Mat base = blurred_noise(cv::Size(320, 240), 3);
+  std::vector<cv::Mat> frames;
+  for (int f = 0; f < 5; ++f) {
+    cv::Mat shifted;
+    cv::warpAffine(base, shifted, cv::Mat(cv::Matx23d(1, 0, 1.5 * f, 0, 1, -0.75 * f)), base.size(),
+                   cv::INTER_CUBIC, cv::BORDER_REFLECT);
+    frames.push_back(shifted);
+  }
+  KltOptions options;
+  options.max_corners = 300;
+  std::vector<int> asked;
+  std::vector<cv::Mat> handed;  // each frame's copy, to see when track_klt lets go of it
+  const auto streamed = track_klt(
+      static_cast<int>(frames.size()),
+      [&](int f) {
+        for (std::size_t older = 0; older + 1 < handed.size(); ++older)
+          EXPECT_EQ(handed[older].u->refcount, 1) << "frame " << older << " still held at frame " << f;
+        asked.push_back(f);
+        handed.push_back(frames[f].clone());
+        return KltFrame{handed.back(), {}};
+      },
+      options);
+  EXPECT_EQ(asked, (std::vector<int>{0, 1, 2, 3, 4}));
+  const auto held = track_klt(frames, {}, options);
+  ASSERT_EQ(streamed.size(), held.size());
+  for (std::size_t f = 0; f < held.size(); ++f) {
+    ASSERT_EQ(streamed[f].size(), held[f].size()) << "frame " << f;
+    for (std::size_t i = 0; i < held[f].size(); ++i) {
+      EXPECT_EQ(streamed[f][i].track, held[f][i].track);
+      EXPECT_EQ(streamed[f][i].position, held[f][i].position);
+    }
+  }
+  EXPECT_GT(held[4].size(), 200u);
 }
 
 TEST(Klt, TracksAShiftedImageToSubPixelAccuracy) {
