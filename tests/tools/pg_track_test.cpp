@@ -152,7 +152,7 @@ TEST_F(PgTrack, OutputsDoNotDependOnTheThreadCount) {
 }
 
 // --max-memory with room for one SIFT detection at a time on two threads: a 640x480 frame's scale
-// space takes about 73 MiB, beside 35 MiB for the eight frames and their features. The detections run
+// space takes about 73 MiB, beside 12 MiB for the eight frames and their features. The detections run
 // one by one instead of two at once; the working images, no longer within half the budget, are
 // dropped after detection and decoded again for the position refinement; the outputs are the same.
 TEST_F(PgTrack, AMemoryBudgetRunsOneDetectionAtATimeWithTheSameOutputs) {

@@ -161,8 +161,7 @@ struct SiftMatcher {
 
   VerifiedPair match(int a, int b, bool loop, std::vector<PointLink>& out) const {
     const auto t0 = std::chrono::steady_clock::now();
-    const std::vector<FeatureMatch> m =
-        match_descriptors(features[a].descriptors, features[b].descriptors, options.ratio, true);
+    const std::vector<FeatureMatch> m = match_features(features[a], features[b], options.ratio, true);
     std::vector<cv::Point2f> pa, pb;
     for (const FeatureMatch& x : m) {
       pa.push_back(features[a].points[x.a]);
@@ -190,17 +189,16 @@ struct SiftMatcher {
 std::vector<std::pair<int, int>> loop_pairs(const std::vector<FrameFeatures>& features,
                                             const CorrespondenceOptions& options) {
   const int n = static_cast<int>(features.size());
-  std::vector<FrameFeatures> probes;
+  std::vector<cv::Mat> probes;  // RootSIFT of each frame's strongest features, made once
   for (const FrameFeatures& f : features)
-    probes.push_back(strongest_features(f, options.loop_probe_features));
+    probes.push_back(root_sift(strongest_features(f, options.loop_probe_features).descriptors));
   std::vector<std::pair<int, int>> probed;
   for (int a = 0; a < n; ++a)
     for (int b = a + options.sequential_window + 1; b < n; ++b) probed.push_back({a, b});
   std::vector<int> counts(probed.size());
   tbb::parallel_for(std::size_t(0), probed.size(), [&](std::size_t i) {
     const auto [a, b] = probed[i];
-    counts[i] = static_cast<int>(
-        match_descriptors(probes[a].descriptors, probes[b].descriptors, options.ratio, true).size());
+    counts[i] = static_cast<int>(match_descriptors(probes[a], probes[b], options.ratio, true).size());
   });
   std::vector<std::vector<std::pair<int, int>>> score(n);  // (count, other)
   for (std::size_t i = 0; i < probed.size(); ++i) {

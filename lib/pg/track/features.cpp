@@ -10,21 +10,19 @@
 
 namespace pg {
 
-namespace {
-
-// RootSIFT (Arandjelovic and Zisserman 2012): L1-normalise, then square root; Euclidean distance on
-// the result compares descriptors by the Hellinger kernel, which matches more reliably than L2.
-void to_root_sift(cv::Mat& descriptors) {
-  for (int r = 0; r < descriptors.rows; ++r) {
-    float* row = descriptors.ptr<float>(r);
+cv::Mat root_sift(const cv::Mat& sift8) {
+  CV_Assert(sift8.type() == CV_8U);
+  cv::Mat out(sift8.rows, sift8.cols, CV_32F);
+  for (int r = 0; r < sift8.rows; ++r) {
+    const std::uint8_t* in = sift8.ptr<std::uint8_t>(r);
+    float* row = out.ptr<float>(r);
     float sum = 0;
-    for (int c = 0; c < descriptors.cols; ++c) sum += std::abs(row[c]);
+    for (int c = 0; c < sift8.cols; ++c) sum += static_cast<float>(in[c]);
     const float inv = sum > 0 ? 1.0f / sum : 0.0f;
-    for (int c = 0; c < descriptors.cols; ++c) row[c] = std::sqrt(std::abs(row[c]) * inv);
+    for (int c = 0; c < sift8.cols; ++c) row[c] = std::sqrt(static_cast<float>(in[c]) * inv);
   }
+  return out;
 }
-
-}  // namespace
 
 FrameFeatures detect_sift(const cv::Mat& gray8, const cv::Mat& mask, int max_features,
                           double contrast_threshold) {
@@ -39,16 +37,16 @@ FrameFeatures detect_sift(const cv::Mat& gray8, const cv::Mat& mask, int max_fea
   if (max_features > 0 && order.size() > static_cast<std::size_t>(max_features)) order.resize(max_features);
   FrameFeatures out;
   out.descriptors.create(static_cast<int>(order.size()), descriptors.cols > 0 ? descriptors.cols : 128,
-                         CV_32F);
+                         CV_8U);
   for (std::size_t k = 0; k < order.size(); ++k) {
     // OpenCV's SIFT doubles the image first (INTER_LINEAR, pixel centres at i / 2 - 0.25) but halves
     // keypoint coordinates without the offset: every keypoint sits 0.25 px right of and below its place.
     out.points.push_back(keypoints[order[k]].pt - cv::Point2f(0.25f, 0.25f));
     out.shapes.push_back({keypoints[order[k]].size, keypoints[order[k]].angle});
     out.responses.push_back(keypoints[order[k]].response);
-    descriptors.row(order[k]).copyTo(out.descriptors.row(static_cast<int>(k)));
+    // OpenCV's float SIFT values are whole numbers up to 255 (Features.StoredDescriptorsAreOpenCvsExactly).
+    descriptors.row(order[k]).convertTo(out.descriptors.row(static_cast<int>(k)), CV_8U);
   }
-  to_root_sift(out.descriptors);
   return out;
 }
 
@@ -122,6 +120,11 @@ std::vector<FeatureMatch> match_descriptors(const cv::Mat& descriptors_a, const 
     matches.push_back({i, j});
   }
   return matches;
+}
+
+std::vector<FeatureMatch> match_features(const FrameFeatures& a, const FrameFeatures& b, double ratio,
+                                         bool mutual) {
+  return match_descriptors(root_sift(a.descriptors), root_sift(b.descriptors), ratio, mutual);
 }
 
 std::vector<bool> fundamental_inliers(const std::vector<cv::Point2f>& a, const std::vector<cv::Point2f>& b,

@@ -18,7 +18,9 @@ struct FrameFeatures {
   std::vector<cv::Point2f> points;  // working-image pixels, pixel (0, 0) the centre of the top-left pixel
   std::vector<PointShape> shapes;   // parallel to points
   std::vector<float> responses;     // detector strength, for picking the strongest subset
-  cv::Mat descriptors;              // CV_32F, one RootSIFT row per point
+  // CV_8U, one SIFT row per point: OpenCV's descriptor, whose values are whole numbers up to 255, kept
+  // exactly in a byte each (a quarter of the memory of floats) and made RootSIFT when matched.
+  cv::Mat descriptors;
 };
 
 // SIFT on an 8-bit grey image; `mask` (8-bit, same size, non-zero = usable) may be empty. Keeps at
@@ -34,7 +36,12 @@ std::uint64_t sift_detection_bytes(cv::Size size);
 
 // Bytes FrameFeatures holds a feature: its descriptor, point, shape and response.
 inline constexpr std::uint64_t sift_feature_bytes =
-    128 * sizeof(float) + sizeof(cv::Point2f) + sizeof(PointShape) + sizeof(float);
+    128 * sizeof(std::uint8_t) + sizeof(cv::Point2f) + sizeof(PointShape) + sizeof(float);
+
+// RootSIFT (Arandjelovic and Zisserman 2012) of CV_8U SIFT rows, as CV_32F rows: L1-normalised, then
+// square-rooted. Euclidean distance between the results compares descriptors by the Hellinger
+// kernel, which matches more reliably than L2 on SIFT.
+cv::Mat root_sift(const cv::Mat& sift8);
 
 // The `count` strongest features (all when count >= size).
 FrameFeatures strongest_features(const FrameFeatures& features, int count);
@@ -48,6 +55,10 @@ struct FeatureMatch {
 // the matches are a function of the descriptors alone. Descriptors are CV_32F rows.
 std::vector<FeatureMatch> match_descriptors(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
                                             double ratio = 0.8, bool mutual = true);
+
+// match_descriptors on two frames' features, compared as RootSIFT.
+std::vector<FeatureMatch> match_features(const FrameFeatures& a, const FrameFeatures& b, double ratio = 0.8,
+                                         bool mutual = true);
 
 // Inlier flags of a RANSAC fundamental matrix (Sampson distance below threshold_px). All false when
 // fewer than 8 pairs or no model is found.

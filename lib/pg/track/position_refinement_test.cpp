@@ -67,7 +67,7 @@ TEST(PositionRefinement, AlignsMatchesOntoAKnownHomography) {
     SCOPED_TRACE(w.name);
     const cv::Mat warped = rendered_texture(w.homography);
     const FrameFeatures a = detect_sift(base, {}, 3000), b = detect_sift(warped, {}, 3000);
-    const std::vector<FeatureMatch> matches = match_descriptors(a.descriptors, b.descriptors);
+    const std::vector<FeatureMatch> matches = match_features(a, b);
     std::vector<std::vector<cv::Point2f>> points{a.points, b.points};
     std::vector<NodeTrack> tracks;
     const auto truth = [&](const cv::Point2f& p) {
@@ -145,8 +145,8 @@ TEST(PositionRefinement, StreamedFramesGiveTheSameResultsAsHeldOnes) {
   // Tracks 0-1, 1-2 and 0-1-2 from the matches of neighbouring frames, so references fall in each.
   std::vector<NodeTrack> tracks;
   std::vector<bool> used0(features[0].points.size()), used1(features[1].points.size());
-  const std::vector<FeatureMatch> m01 = match_descriptors(features[0].descriptors, features[1].descriptors);
-  const std::vector<FeatureMatch> m12 = match_descriptors(features[1].descriptors, features[2].descriptors);
+  const std::vector<FeatureMatch> m01 = match_features(features[0], features[1]);
+  const std::vector<FeatureMatch> m12 = match_features(features[1], features[2]);
   for (const FeatureMatch& a : m01)
     for (const FeatureMatch& b : m12)
       if (a.b == b.a && !used0[a.a] && !used1[a.b]) {

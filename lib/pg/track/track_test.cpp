@@ -190,7 +190,7 @@ TEST(Features, SiftMatchesFollowAKnownHomography) {
   cv::Mat warped;
   cv::warpPerspective(base, warped, cv::Mat(H), base.size(), cv::INTER_CUBIC);
   const FrameFeatures a = detect_sift(base, {}, 4000), b = detect_sift(warped, {}, 4000);
-  const std::vector<FeatureMatch> matches = match_descriptors(a.descriptors, b.descriptors);
+  const std::vector<FeatureMatch> matches = match_features(a, b);
   ASSERT_GT(matches.size(), 200u);
   std::size_t close = 0;
   for (const FeatureMatch& m : matches) {
@@ -200,6 +200,38 @@ TEST(Features, SiftMatchesFollowAKnownHomography) {
     if (std::hypot(dx, dy) < 1.0) ++close;
   }
   EXPECT_GT(close, matches.size() * 9 / 10);
+}
+
+// detect_sift keeps OpenCV's SIFT descriptors in a byte a value, which loses nothing because OpenCV's
+// float values are whole numbers from 0 to 255; root_sift makes unit-length rows of them.
+TEST(Features, StoredDescriptorsAreOpenCvsExactly) {
+  const cv::Mat image = blurred_noise(cv::Size(640, 480), 9);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat opencv;
+  cv::SIFT::create(0, 3, 0.02, 10, 1.6)->detectAndCompute(image, cv::noArray(), keypoints, opencv);
+  ASSERT_EQ(opencv.type(), CV_32F);
+  ASSERT_GT(opencv.rows, 500);
+  int fractional = 0;
+  for (int r = 0; r < opencv.rows; ++r)
+    for (int c = 0; c < opencv.cols; ++c) {
+      const float v = opencv.at<float>(r, c);
+      fractional += v != std::round(v) || v < 0 || v > 255;
+    }
+  EXPECT_EQ(fractional, 0);
+  const FrameFeatures features = detect_sift(image, {}, 0);
+  ASSERT_EQ(features.descriptors.rows, opencv.rows);
+  ASSERT_EQ(features.descriptors.type(), CV_8U);
+  // Stored strongest first: row 0 is the first keypoint of the highest response.
+  const auto strongest =
+      std::max_element(keypoints.begin(), keypoints.end(),
+                       [](const auto& a, const auto& b) { return a.response < b.response; });
+  cv::Mat expected;
+  opencv.row(static_cast<int>(strongest - keypoints.begin())).convertTo(expected, CV_32F);
+  cv::Mat stored;
+  features.descriptors.row(0).convertTo(stored, CV_32F);
+  EXPECT_EQ(cv::norm(expected, stored, cv::NORM_INF), 0);
+  const cv::Mat root = root_sift(features.descriptors);
+  for (int r = 0; r < root.rows; ++r) EXPECT_NEAR(cv::norm(root.row(r)), 1.0, 1e-5) << "row " << r;
 }
 
 // Pixel (0, 0) is the centre of the top-left pixel: a keypoint at x in an image lies at width - 1 - x
