@@ -117,4 +117,20 @@ TEST(PgMergePoints, SensorOptionsAreUsageErrors) {
   EXPECT_FALSE(fs::exists(dir / "m.ply"));
 }
 
+// Every scan's header is read before the first is integrated: a second scan that is not a PLY fails
+// with exit 3 and its name, without integrating the first.
+TEST(PgMergePoints, AnUnreadableScanFailsBeforeAnyIsIntegrated) {
+  TempDir dir;
+  fusion::testing::write_plain_points(dir / "sweep.ply",
+                                      fusion::testing::lidar_sweep(room(), sensor, 48, 24));
+  pg::testing::write_text(dir / "broken.ply", "not a ply file\n");
+  const auto r = run_tool("pg-merge", volume_args(dir / "sweep.ply", dir / "m.ply",
+                                                  {"--scan", (dir / "broken.ply").string(), "--sensor-origin",
+                                                   "0.25,-0.5,1.25", "--log-level", "info"}));
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.stderr_text.find("broken.ply"), std::string::npos) << r.stderr_text;
+  EXPECT_EQ(r.stderr_text.find("integrated 1/"), std::string::npos) << r.stderr_text;
+  EXPECT_FALSE(fs::exists(dir / "m.ply"));
+}
+
 }  // namespace

@@ -2,6 +2,7 @@
 // farm split (integrate + combine) against a single run, pg-synth scenes, and the documented errors.
 #include <gtest/gtest.h>
 
+#include "pg/camera/cameras_io.h"
 #include "pg/eval/mesh_eval.h"
 #include "pg/fusion/fusion_test_scenes.h"
 #include "pg/image/depth_exr.h"
@@ -120,12 +121,80 @@ TEST(PgMerge, BadInputsAreClearErrors) {
   EXPECT_NE(r.stderr_text.find("view_1.png: mask is 10x10 but the depth map"), std::string::npos)
       << r.stderr_text;
   EXPECT_EQ(r.stderr_text.find("integrated 1/2"), std::string::npos) << r.stderr_text;
+  // A depth map outside this job's --range is not read: the chunk of the good map alone merges.
+  r = run_tool("pg-merge", {"volume", "--voxel-size", "0.03", "--out", (dir / "chunk.ply").string(),
+                            "--range-size", "1", "--depth", depth[0], (dir / "plain.exr").string()});
+  EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
   // A voxel size that needs more memory than allowed: exit 5 before allocating.
   r = run_tool("pg-merge", {"volume", "--voxel-size", "0.001", "--max-memory", "16M", "--out",
                             (dir / "o.ply").string(), "--depth", depth[0]});
   EXPECT_EQ(r.exit_code, 5);
   EXPECT_NE(r.stderr_text.find("--max-memory"), std::string::npos) << r.stderr_text;
   EXPECT_FALSE(fs::exists(dir / "o.ply"));
+}
+
+// Writes the scene's depth from an orbit as RGB-D frames: 16-bit PNG depth in millimetres
+// (<folder>/<id>.png, 0 where nothing is seen) and their cameras (<folder>/cameras.json).
+void write_rgbd_frames(const Mesh& scene, const fs::path& folder, int views) {
+  fs::create_directories(folder);
+  const TriangleBvh bvh(scene);
+  CameraSet cameras;
+  for (const Camera& camera : fusion::testing::orbit(views, 2.5, 1.6, {0, 0, 0.3}, 96, 72, 85)) {
+    const DepthMap map = fusion::testing::render_depth(bvh, camera);
+    cv::Mat1w millimetres(map.depth.size(), std::uint16_t(0));
+    for (int y = 0; y < map.depth.rows; ++y)
+      for (int x = 0; x < map.depth.cols; ++x)
+        if (const float z = map.depth.at<float>(y, x); std::isfinite(z))
+          millimetres(y, x) = static_cast<std::uint16_t>(std::lround(z * 1000));
+    write_image(folder / (camera.id + ".png"), millimetres);
+    cameras.cameras.push_back(camera);
+  }
+  write_cameras(folder / "cameras.json", cameras);
+}
+
+// RGB-D frames (a cameras.json and 16-bit depth images) merge like depth maps, to within a voxel of
+// the scene. Their files are checked before the first is integrated: a depth image or mask of the
+// wrong size for the second frame fails with exit 3 and a message naming it, and nothing is written.
+TEST(PgMerge, RgbdFramesMergeAndAreCheckedFirst) {
+  TempDir dir;
+  const double voxel = 0.03;
+  const Mesh scene = sphere_scene();
+  write_rgbd_frames(scene, dir / "rgbd", 8);
+  const std::vector<std::string> common{"volume",
+                                        "--voxel-size",
+                                        "0.03",
+                                        "--rgbd-cameras",
+                                        (dir / "rgbd" / "cameras.json").string(),
+                                        "--rgbd-depth",
+                                        (dir / "rgbd" / "{id}.png").string()};
+  auto r = run_tool("pg-merge", args(common, {"--out", (dir / "m.ply").string()}));
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const MeshEvalResult eval =
+      evaluate_mesh(read_mesh(dir / "m.ply"), scene, {.samples = 20000, .thresholds = {voxel}});
+  EXPECT_LT(eval.accuracy.p90, voxel);
+
+  const std::string second = read_cameras(dir / "rgbd" / "cameras.json").cameras[1].id;
+  fs::create_directories(dir / "masks");
+  write_image(dir / "masks" / (second + ".png"), cv::Mat1b(10, 10, std::uint8_t(0)));
+  r = run_tool("pg-merge",
+               args(common, {"--out", (dir / "bad.ply").string(), "--masks", (dir / "masks").string()}));
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.stderr_text.find(second + ".png: mask is 10x10 but the depth map"), std::string::npos)
+      << r.stderr_text;
+  EXPECT_EQ(r.stderr_text.find("integrated 1/"), std::string::npos) << r.stderr_text;
+
+  write_image(dir / "rgbd" / (second + ".png"), cv::Mat1w(36, 48, std::uint16_t(1000)));
+  r = run_tool("pg-merge", args(common, {"--out", (dir / "bad.ply").string()}));
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.stderr_text.find(second + ".png: depth image is 48x36 but camera '" + second + "' is 96x72"),
+            std::string::npos)
+      << r.stderr_text;
+  EXPECT_EQ(r.stderr_text.find("integrated 1/"), std::string::npos) << r.stderr_text;
+  EXPECT_FALSE(fs::exists(dir / "bad.ply"));
+
+  // A farm job checks only its own inputs: the first frame alone still merges.
+  r = run_tool("pg-merge", args(common, {"--out", (dir / "first.ply").string(), "--range-size", "1"}));
+  EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
 }
 
 TEST(PgMerge, PgSynthSetMergesBelowOneVoxel) {

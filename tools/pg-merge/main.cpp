@@ -93,30 +93,28 @@ fs::path color_for(const fs::path& images_dir, const fs::path& depth_path, const
                                    candidates.front().filename().string(), ")"));
 }
 
-std::vector<MergeInput> list_inputs(cli::Frame& frame, const InputOptions& o) {
+// The user mask <name>.png in masks_dir, if there is one, checked against `camera`'s size from its
+// header, so that a wrong mask fails before any input is integrated.
+fs::path checked_mask(const std::string& masks_dir, const std::string& name, const fs::path& depth,
+                      const Camera& camera) {
+  if (masks_dir.empty()) return {};
+  const fs::path mask = fs::path(masks_dir) / (name + ".png");
+  if (!fs::exists(mask)) return {};
+  if (const std::optional<cv::Size> size = peek_image_size(mask))
+    require_mask_size(mask, *size, depth, {camera.width, camera.height});
+  return mask;
+}
+
+// Every input named by the options, in order (depth maps, RGB-D frames, scans), from the command
+// line and the camera, pose and placement lists; its files are not opened yet.
+std::vector<MergeInput> all_inputs(cli::Frame& frame, const InputOptions& o) {
   std::vector<MergeInput> inputs;
   for (const auto& spec : o.depth) {
     auto [path, weight] = split_weight(spec);
-    frame.input(path);
-    // Every map's header and mask size now, so that a wrong file fails before the others are
-    // integrated.
-    const Camera camera = read_depth_exr_header(path).camera;
-    MergeInput in;
+    MergeInput& in = inputs.emplace_back();
     in.kind = InputKind::depth_exr;
     in.path = path;
     in.multiplier = weight;
-    if (!o.masks_dir.empty()) {
-      const fs::path mask = fs::path(o.masks_dir) / (path.stem().string() + ".png");
-      if (fs::exists(mask)) {
-        const std::optional<cv::Size> size = peek_image_size(mask);
-        if (size && (size->width != camera.width || size->height != camera.height))
-          throw InputError(mask, str("mask is ", size->width, "x", size->height, " but the depth map ",
-                                     path.string(), " is ", camera.width, "x", camera.height));
-        in.mask = mask;
-      }
-    }
-    if (!o.images_dir.empty()) in.color = color_for(o.images_dir, path, camera);
-    inputs.push_back(in);
   }
   if (!o.rgbd_cameras.empty() || !o.rgbd_poses.empty()) {
     CameraSet cameras;
@@ -132,39 +130,24 @@ std::vector<MergeInput> list_inputs(cli::Frame& frame, const InputOptions& o) {
           o.rgbd_size[0], o.rgbd_size[1]);
     }
     for (const Camera& camera : cameras.cameras) {
-      MergeInput in;
+      MergeInput& in = inputs.emplace_back();
       in.kind = InputKind::rgbd;
       in.path = expand_pattern(o.rgbd_depth, camera.id);
       in.camera = camera;
-      frame.input(in.path);
-      if (!o.rgbd_color.empty()) {
-        in.color = expand_pattern(o.rgbd_color, camera.id);
-        frame.input(in.color);
-      }
-      if (!o.masks_dir.empty() && fs::exists(fs::path(o.masks_dir) / (camera.id + ".png")))
-        in.mask = fs::path(o.masks_dir) / (camera.id + ".png");
-      inputs.push_back(in);
+      if (!o.rgbd_color.empty()) in.color = expand_pattern(o.rgbd_color, camera.id);
     }
   }
   if (!o.scans.empty() || !o.scan_conf.empty()) {
     if (!o.sensor_origin.empty() && !o.sensor_direction.empty())
       throw UsageError("scans take one of --sensor-origin or --sensor-direction, not both");
-    const bool sensor_given = !o.sensor_origin.empty() || !o.sensor_direction.empty();
     auto scan_input = [&](const fs::path& path, const Rigid3& placement, double weight) {
-      frame.input(path);
-      // Only point clouds whose points carry their own sensor origins need no sensor option.
-      if (!sensor_given && !inspect_scan(path).per_point_origins)
-        throw UsageError(str(path.string(),
-                             ": scans need --sensor-origin x,y,z or --sensor-direction x,y,z (in each scan's "
-                             "frame), unless its points carry sensor_x, sensor_y, sensor_z"));
-      MergeInput in;
+      MergeInput& in = inputs.emplace_back();
       in.kind = InputKind::scan;
       in.path = path;
       in.world_from_scan = placement;
       in.multiplier = weight;
       if (!o.sensor_origin.empty()) in.sensor_origin = vector3(o.sensor_origin);
       if (!o.sensor_direction.empty()) in.sensor_direction = vector3(o.sensor_direction);
-      inputs.push_back(in);
     };
     for (const auto& spec : o.scans) {
       auto [path, weight] = split_weight(spec);
@@ -178,6 +161,40 @@ std::vector<MergeInput> list_inputs(cli::Frame& frame, const InputOptions& o) {
   }
   if (inputs.empty())
     throw UsageError("no inputs: give --depth, --rgbd-cameras/--rgbd-poses, --scan or --scan-conf");
+  return inputs;
+}
+
+// Checks one input's files from their headers, and finds its mask (and a depth map's colour image),
+// so that a wrong file fails before any input is integrated. Formats without a header pg can peek
+// are checked when decoded.
+void check_input(cli::Frame& frame, MergeInput& in, const InputOptions& o) {
+  frame.input(in.path);
+  switch (in.kind) {
+    case InputKind::depth_exr: {
+      const Camera camera = read_depth_exr_header(in.path).camera;
+      in.mask = checked_mask(o.masks_dir, in.path.stem().string(), in.path, camera);
+      if (!o.images_dir.empty()) in.color = color_for(o.images_dir, in.path, camera);
+      break;
+    }
+    case InputKind::rgbd:
+      if (!in.color.empty()) frame.input(in.color);
+      if (const std::optional<cv::Size> size = peek_image_size(in.path))
+        require_rgbd_depth_size(in.path, *size, in.camera);
+      in.mask = checked_mask(o.masks_dir, in.camera.id, in.path, in.camera);
+      break;
+    case InputKind::scan:
+      // Only point clouds whose points carry their own sensor origins need no sensor option.
+      if (!inspect_scan(in.path).per_point_origins && !in.sensor_origin && !in.sensor_direction)
+        throw UsageError(str(in.path.string(),
+                             ": scans need --sensor-origin x,y,z or --sensor-direction x,y,z (in each scan's "
+                             "frame), unless its points carry sensor_x, sensor_y, sensor_z"));
+      break;
+  }
+}
+
+// The inputs of this job: those in --range-start/--range-size (a farm split), each checked.
+std::vector<MergeInput> list_inputs(cli::Frame& frame, const InputOptions& o) {
+  std::vector<MergeInput> inputs = all_inputs(frame, o);
   if (o.range_start > 0 || o.range_size > 0) {
     if (std::size_t(o.range_start) >= inputs.size())
       throw UsageError(str("--range-start ", o.range_start, " is beyond the ", inputs.size(), " inputs"));
@@ -185,6 +202,7 @@ std::vector<MergeInput> list_inputs(cli::Frame& frame, const InputOptions& o) {
         o.range_size > 0 ? std::min(inputs.size(), std::size_t(o.range_start + o.range_size)) : inputs.size();
     inputs = std::vector<MergeInput>(inputs.begin() + o.range_start, inputs.begin() + end);
   }
+  for (MergeInput& in : inputs) check_input(frame, in, o);
   return inputs;
 }
 

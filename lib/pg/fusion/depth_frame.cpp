@@ -70,10 +70,8 @@ DepthFrame make_depth_frame(const DepthMap& map, const std::filesystem::path& so
   if (map.depth.cols != map.camera.width || map.depth.rows != map.camera.height)
     throw InputError(source, str("depth is ", map.depth.cols, "x", map.depth.rows, " but its camera is ",
                                  map.camera.width, "x", map.camera.height));
-  if (!user_mask.empty() && user_mask.size() != map.depth.size())
-    throw InputError(mask_source.empty() ? source : mask_source,
-                     str("mask is ", user_mask.cols, "x", user_mask.rows, " but the depth map ",
-                         source.string(), " is ", map.depth.cols, "x", map.depth.rows));
+  if (!user_mask.empty())
+    require_mask_size(mask_source.empty() ? source : mask_source, user_mask.size(), source, map.depth.size());
 
   DepthFrame frame;
   frame.name = source.string();
@@ -154,6 +152,19 @@ DepthFrame make_depth_frame(const DepthMap& map, const std::filesystem::path& so
   return frame;
 }
 
+void require_mask_size(const std::filesystem::path& mask_path, cv::Size mask,
+                       const std::filesystem::path& source, cv::Size depth) {
+  if (mask != depth)
+    throw InputError(mask_path, str("mask is ", mask.width, "x", mask.height, " but the depth map ",
+                                    source.string(), " is ", depth.width, "x", depth.height));
+}
+
+void require_rgbd_depth_size(const std::filesystem::path& path, cv::Size size, const Camera& camera) {
+  if (size.width != camera.width || size.height != camera.height)
+    throw InputError(path, str("depth image is ", size.width, "x", size.height, " but camera '", camera.id,
+                               "' is ", camera.width, "x", camera.height));
+}
+
 cv::Mat read_mask_image(const std::filesystem::path& path) {
   cv::Mat image = read_image(path, ReadMode::unchanged);
   if (image.channels() > 1) cv::extractChannel(image, image, 0);
@@ -175,9 +186,7 @@ DepthMap read_rgbd_depth(const std::filesystem::path& path, const Camera& camera
   const cv::Mat raw = read_image(path, ReadMode::unchanged);
   if (raw.channels() != 1 || (raw.depth() != CV_16U && raw.depth() != CV_32F))
     throw InputError(path, "an RGB-D depth image must be single-channel 16-bit (PNG/PGM) or 32-bit float");
-  if (raw.cols != camera.width || raw.rows != camera.height)
-    throw InputError(path, str("depth image is ", raw.cols, "x", raw.rows, " but camera '", camera.id,
-                               "' is ", camera.width, "x", camera.height));
+  require_rgbd_depth_size(path, raw.size(), camera);
   DepthMap map;
   raw.convertTo(map.depth, CV_32F, depth_scale);
   map.depth.setTo(NAN, raw == 0);
