@@ -89,6 +89,17 @@ TEST(PgCalib, FlattenKeepsBitDepthAndStraightensLines) {
   ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
   const pg::CameraSet flat = pg::read_cameras(tmp / "flat" / "cameras.json");
   ASSERT_EQ(flat.cameras.size(), 3u);
+  // An image of another size than the camera, after a good one: found from the headers before the
+  // good one is flattened, so nothing is written.
+  cv::Mat small;
+  cv::resize(gray8, small, {320, 240});
+  pg::write_image(tmp / "small.png", small);
+  const auto bad = run_tool("pg-calib", {"flatten", "--cameras", (tmp / "left.json").string(), "--images",
+                                         (dir / "left12.jpg").string(), (tmp / "small.png").string(), "--out",
+                                         (tmp / "flat2").string()});
+  EXPECT_EQ(bad.exit_code, 3);
+  EXPECT_NE(bad.stderr_text.find("small.png: is 320x240, camera"), std::string::npos) << bad.stderr_text;
+  EXPECT_FALSE(fs::exists(tmp / "flat2" / "left12.jpg"));
   EXPECT_TRUE(flat.cameras[0].distortion.is_zero());
   EXPECT_EQ(flat.cameras[1].image, "deep.png");
   EXPECT_EQ(pg::read_image(tmp / "flat" / "deep.png").depth(), CV_16U);
@@ -122,6 +133,25 @@ TEST(PgCalib, ClearErrorsAndNothingWritten) {
   cv::resize(pg::read_image(dir / "left01.jpg"), small, {320, 240});
   pg::write_image(tmp / "small.png", small);
   expect_failure({(dir / "left01.jpg").string(), (tmp / "small.png").string()}, "9x6", 3, "one image size");
+  // Found from the headers before any board is searched for: the first image, without a board, is
+  // not reported as boardless.
+  pg::write_image(tmp / "blank.png", cv::Mat1b(pg::read_image(dir / "left01.jpg").size(), std::uint8_t(128)));
+  expect_failure({(tmp / "blank.png").string(), (dir / "left01.jpg").string(), (tmp / "small.png").string()},
+                 "9x6", 3, "small.png: is 320x240 but");
+  {
+    std::vector<std::string> args = {"calibrate",
+                                     "--images",
+                                     (tmp / "blank.png").string(),
+                                     (dir / "left01.jpg").string(),
+                                     (tmp / "small.png").string(),
+                                     "--board",
+                                     "9x6",
+                                     "--square",
+                                     "0.025",
+                                     "--out",
+                                     out};
+    EXPECT_EQ(run_tool("pg-calib", args).stderr_text.find("blank.png: "), std::string::npos);
+  }
   expect_failure({(dir / "left01.jpg").string(), (dir / "left02.jpg").string()}, "12x12", 4,
                  "no 12x12 board");
   expect_failure({(dir / "left01.jpg").string(), (dir / "left02.jpg").string()}, "9x6", 4,

@@ -69,6 +69,33 @@ struct CameraRun {
   CalibrationResult result;
 };
 
+// Throws unless `image` (of `size`) is the size of `first`, the first image of a calibration.
+void require_first_size(const fs::path& image, cv::Size size, const fs::path& first, cv::Size first_size) {
+  if (size != first_size)
+    throw InputError(
+        image, str("is ", size.width, "x", size.height, " but ", first.string(), " is ", first_size.width,
+                   "x", first_size.height, "; calibrate one image size at a time"));
+}
+
+// Every image's size from its header, before any board is searched for, so that a wrong image fails
+// in seconds. Formats without a header pg can peek are checked when decoded.
+void check_one_size(const std::vector<fs::path>& files) {
+  std::optional<cv::Size> first;
+  for (const fs::path& f : files) {
+    const std::optional<cv::Size> size = peek_image_size(f);
+    if (!size) continue;
+    if (!first) first = size;
+    require_first_size(f, *size, files.front(), *first);
+  }
+}
+
+// Throws unless `image` (of `size`) is the size of `camera`.
+void require_camera_size(const fs::path& image, cv::Size size, const Camera& camera) {
+  if (size.width != camera.width || size.height != camera.height)
+    throw InputError(image, str("is ", size.width, "x", size.height, ", camera \"", camera.id, "\" is ",
+                                camera.width, "x", camera.height));
+}
+
 // Detects the board in every image (all the same size) and calibrates.
 CameraRun calibrate_images(const std::vector<fs::path>& files, const BoardSpec& board, Detector detector,
                            const CalibrationOptions& options, const std::string& id) {
@@ -77,9 +104,7 @@ CameraRun calibrate_images(const std::vector<fs::path>& files, const BoardSpec& 
   for (const fs::path& f : files) {
     const cv::Mat image = read_image(f);
     if (!size) size = image.size();
-    if (image.size() != *size)
-      throw InputError(f, str("is ", image.cols, "x", image.rows, " but ", files.front().string(), " is ",
-                              size->width, "x", size->height, "; calibrate one image size at a time"));
+    require_first_size(f, image.size(), files.front(), *size);
     ImageDetection d{f.filename().string(), detect_board(image, board, detector)};
     if (d.detection.found)
       run.views.push_back({d.image, d.detection.corners});
@@ -139,6 +164,8 @@ void run_calibrate(cli::Frame& frame, const std::vector<std::string>& images,
                          "; they are paired in sorted order"));
   for (const auto& f : files) frame.input(f);
   for (const auto& f : second_files) frame.input(f);
+  check_one_size(files);
+  check_one_size(second_files);
   for (const fs::path& o : {fs::path(out), fs::path(report_path), coverage_png, distortion_png})
     frame.output(o);
   std::vector<fs::path> second_pngs;
@@ -252,6 +279,10 @@ void run_flatten(cli::Frame& frame, const std::string& cameras_path, const std::
     if (!names.insert(name).second)
       throw UsageError("two images are both named " + name + "; flatten them separately");
     frame.output(fs::path(out) / name);
+    // Every image's size from its header before the first is flattened (formats without a header pg
+    // can peek are checked when decoded).
+    if (const std::optional<cv::Size> size = peek_image_size(job.image))
+      require_camera_size(job.image, *size, job.camera);
   }
   const fs::path cameras_out = fs::path(out) / "cameras.json";
   frame.output(cameras_out);
@@ -262,9 +293,7 @@ void run_flatten(cli::Frame& frame, const std::string& cameras_path, const std::
   double valid = 1;
   for (const Job& job : jobs) {
     const cv::Mat image = read_image(job.image);
-    if (image.cols != job.camera.width || image.rows != job.camera.height)
-      throw InputError(job.image, str("is ", image.cols, "x", image.rows, ", camera \"", job.camera.id,
-                                      "\" is ", job.camera.width, "x", job.camera.height));
+    require_camera_size(job.image, image.size(), job.camera);
     const std::string key = nlohmann::json(camera_to_json([&] {
                               Camera c = job.camera;
                               c.id.clear();
