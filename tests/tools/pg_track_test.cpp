@@ -151,24 +151,26 @@ TEST_F(PgTrack, OutputsDoNotDependOnTheThreadCount) {
   expect_same_outputs(one, all);
 }
 
+// Runs pg-track on the scene's first eight frames on two threads into `dir`, with `extra` options,
+// and returns its report's metrics.
+nlohmann::json track_metrics(const fs::path& images, const TempDir& dir, std::vector<std::string> extra) {
+  std::vector<std::string> args = {
+      "--images",          images.string(), "--range", "0:8",      "--out",
+      dir.path().string(), "--threads",     "2",       "--report", (dir / "report.json").string()};
+  args.insert(args.end(), extra.begin(), extra.end());
+  const auto r = run_tool("pg-track", args);
+  EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
+  return pg::read_json_file(dir / "report.json")["metrics"];
+}
+
 // --max-memory with room for one SIFT detection at a time on two threads: a 640x480 frame's scale
 // space takes about 73 MiB, beside 12 MiB for the eight frames and their features. The detections run
 // one by one instead of two at once; the working images, no longer within half the budget, are
 // dropped after detection and decoded again for the position refinement; the outputs are the same.
 TEST_F(PgTrack, AMemoryBudgetRunsOneDetectionAtATimeWithTheSameOutputs) {
-  // Runs pg-track into `dir` and returns its report's metrics.
-  const auto metrics = [&](const TempDir& dir, std::vector<std::string> extra) {
-    std::vector<std::string> args = {"--images", (scene() / "images").string(), "--range",   "0:8",
-                                     "--out",    dir.path().string(),           "--threads", "2",
-                                     "--report", (dir / "report.json").string()};
-    args.insert(args.end(), extra.begin(), extra.end());
-    const auto r = run_tool("pg-track", args);
-    EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
-    return pg::read_json_file(dir / "report.json")["metrics"];
-  };
   TempDir free, budget;
-  const nlohmann::json free_metrics = metrics(free, {});
-  const nlohmann::json budget_metrics = metrics(budget, {"--max-memory", "140M"});
+  const nlohmann::json free_metrics = track_metrics(scene() / "images", free, {});
+  const nlohmann::json budget_metrics = track_metrics(scene() / "images", budget, {"--max-memory", "140M"});
   EXPECT_EQ(free_metrics.value("sift_detections_at_once", 0), 2);
   EXPECT_TRUE(free_metrics.value("images_held", false));
   EXPECT_EQ(budget_metrics.value("sift_detections_at_once", 0), 1);
@@ -180,20 +182,10 @@ TEST_F(PgTrack, AMemoryBudgetRunsOneDetectionAtATimeWithTheSameOutputs) {
 // half of it, so the frames stream through the tracker two at a time and are decoded again for the
 // SIFT loop matching and the position refinement; the outputs are the same as with them all held.
 TEST_F(PgTrack, AMemoryBudgetStreamsKltFramesWithTheSameOutputs) {
-  const auto metrics = [&](const TempDir& dir, std::vector<std::string> extra) {
-    std::vector<std::string> args = {"--images",  (scene() / "images").string(),
-                                     "--range",   "0:8",
-                                     "--matcher", "klt",
-                                     "--out",     dir.path().string(),
-                                     "--report",  (dir / "report.json").string()};
-    args.insert(args.end(), extra.begin(), extra.end());
-    const auto r = run_tool("pg-track", args);
-    EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
-    return pg::read_json_file(dir / "report.json")["metrics"];
-  };
   TempDir free, budget;
-  const nlohmann::json free_metrics = metrics(free, {});
-  const nlohmann::json budget_metrics = metrics(budget, {"--max-memory", "140M"});
+  const nlohmann::json free_metrics = track_metrics(scene() / "images", free, {"--matcher", "klt"});
+  const nlohmann::json budget_metrics =
+      track_metrics(scene() / "images", budget, {"--matcher", "klt", "--max-memory", "140M"});
   EXPECT_FALSE(free_metrics.value("klt_frames_streamed", true));
   EXPECT_TRUE(free_metrics.value("images_held", false));
   EXPECT_TRUE(budget_metrics.value("klt_frames_streamed", false));
