@@ -133,4 +133,20 @@ TEST(PgMergePoints, AnUnreadableScanFailsBeforeAnyIsIntegrated) {
   EXPECT_FALSE(fs::exists(dir / "m.ply"));
 }
 
+// A farm chunk (--range-size 1) reads only its own scan, but still refuses to overwrite another
+// chunk's: the second scan is kept as it was.
+TEST(PgMergePoints, AChunkDoesNotOverwriteAnotherChunksScan) {
+  TempDir dir;
+  const auto sweep = fusion::testing::lidar_sweep(room(), sensor, 48, 24);
+  fusion::testing::write_plain_points(dir / "sweep.ply", sweep);
+  fusion::testing::write_plain_points(dir / "other.ply", sweep);
+  const std::string before = pg::testing::read_text(dir / "other.ply");
+  const auto r = run_tool("pg-merge", volume_args(dir / "sweep.ply", dir / "other.ply",
+                                                  {"--scan", (dir / "other.ply").string(), "--range-size",
+                                                   "1", "--sensor-origin", "0.25,-0.5,1.25"}));
+  EXPECT_EQ(r.exit_code, 6);
+  EXPECT_NE(r.stderr_text.find("refusing to overwrite an input"), std::string::npos) << r.stderr_text;
+  EXPECT_EQ(pg::testing::read_text(dir / "other.ply"), before);
+}
+
 }  // namespace

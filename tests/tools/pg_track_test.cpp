@@ -178,9 +178,10 @@ TEST_F(PgTrack, AMemoryBudgetRunsOneDetectionAtATimeWithTheSameOutputs) {
   expect_same_outputs(free, budget);
 }
 
-// KLT with the same budget: the features and one detection fit, but not every working image within
-// half of it, so the frames stream through the tracker two at a time and are decoded again for the
-// SIFT loop matching and the position refinement; the outputs are the same as with them all held.
+// KLT with the same budget: the features and one detection fit, but with the working images they
+// take more than half of it (the detection alone does), so the frames stream through the tracker two
+// at a time and are decoded again for the SIFT loop matching and the position refinement; the
+// outputs are the same as with them all held.
 TEST_F(PgTrack, AMemoryBudgetStreamsKltFramesWithTheSameOutputs) {
   TempDir free, budget;
   const nlohmann::json free_metrics = track_metrics(scene() / "images", free, {"--matcher", "klt"});

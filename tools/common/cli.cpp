@@ -160,6 +160,10 @@ void Frame::input_dir(const fs::path& path) {
   Provenance::add_current_input(path.string());
 }
 
+void Frame::keep(const fs::path& path) {
+  inputs_.push_back(path);
+}
+
 void Frame::output(const fs::path& path) {
   for (const auto& in : inputs_)
     if (same_file(in, path)) throw OutputError(path, "refusing to overwrite an input of this run");

@@ -37,6 +37,9 @@ class Frame {
   void input(const std::filesystem::path& path);
   // Declares an input folder.
   void input_dir(const std::filesystem::path& path);
+  // Declares a file the run names but does not read (another farm chunk's input): outputs may not
+  // overwrite it, but it need not exist and is not recorded as an input.
+  void keep(const std::filesystem::path& path);
   // Declares an output file: refused (OutputError) if it is one of the declared inputs or its
   // folder is missing; recorded in the report.
   void output(const std::filesystem::path& path);
@@ -57,7 +60,7 @@ class Frame {
   int threads_ = 0;
   std::string max_memory_text_;
   std::uint64_t max_memory_ = 0;
-  std::vector<std::filesystem::path> inputs_;
+  std::vector<std::filesystem::path> inputs_;  // and the kept files (keep)
   std::vector<std::filesystem::path> input_dirs_;
 };
 

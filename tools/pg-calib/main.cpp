@@ -80,12 +80,12 @@ void require_first_size(const fs::path& image, cv::Size size, const fs::path& fi
 // Every image's size from its header, before any board is searched for, so that a wrong image fails
 // in seconds. Formats without a header pg can peek are checked when decoded.
 void check_one_size(const std::vector<fs::path>& files) {
-  std::optional<cv::Size> first;
+  std::optional<std::pair<fs::path, cv::Size>> first;  // the first image whose size was read
   for (const fs::path& f : files) {
     const std::optional<cv::Size> size = peek_image_size(f);
     if (!size) continue;
-    if (!first) first = size;
-    require_first_size(f, *size, files.front(), *first);
+    if (!first) first.emplace(f, *size);
+    require_first_size(f, *size, first->first, first->second);
   }
 }
 

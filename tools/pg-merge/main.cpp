@@ -192,9 +192,14 @@ void check_input(cli::Frame& frame, MergeInput& in, const InputOptions& o) {
   }
 }
 
-// The inputs of this job: those in --range-start/--range-size (a farm split), each checked.
+// The inputs of this job: those in --range-start/--range-size (a farm split), each checked. The
+// others are not read, but no output may overwrite them.
 std::vector<MergeInput> list_inputs(cli::Frame& frame, const InputOptions& o) {
   std::vector<MergeInput> inputs = all_inputs(frame, o);
+  for (const MergeInput& in : inputs) {
+    frame.keep(in.path);
+    if (!in.color.empty()) frame.keep(in.color);
+  }
   if (o.range_start > 0 || o.range_size > 0) {
     if (std::size_t(o.range_start) >= inputs.size())
       throw UsageError(str("--range-start ", o.range_start, " is beyond the ", inputs.size(), " inputs"));

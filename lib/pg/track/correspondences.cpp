@@ -93,8 +93,8 @@ WorkingFrame load_frame(const SequenceFrame& frame, double downscale, bool with_
 // What frames cost in memory, from their file headers: what build_correspondences may keep (the 8-bit
 // working images and masks, and the most features detect_sift keeps), what load_frame holds while it
 // decodes one frame (the file decoded, its float grey and 8-bit copies, and the same for a mask), one
-// SIFT detection with the image it searches, and KLT tracking into the frame (the frame before and
-// this one, one of them being decoded, and what tracking builds from them). For several frames: the
+// SIFT detection with the image it searches, and KLT tracking into the frame (decoding it beside the
+// frame before, then tracking between the two). For several frames: the
 // sums of what is kept, the largest decode, detection and tracking step.
 struct FrameMemory {
   std::uint64_t images = 0, features = 0, load = 0, detection = 0, tracking = 0;
@@ -112,7 +112,8 @@ FrameMemory frame_memory(const SequenceFrame& frame, const CorrespondenceOptions
   m.features = options.max_features * sift_feature_bytes;
   m.load = std::uint64_t(full->area()) * decoded * planes;
   m.detection = sift_detection_bytes(working) + m.images;
-  m.tracking = 2 * m.images + m.load + klt_tracking_bytes(working);
+  // Streamed, a frame is decoded beside the one before, then the two are tracked.
+  m.tracking = std::max(m.images + m.load, 2 * m.images + klt_tracking_bytes(working));
   return m;
 }
 
@@ -440,6 +441,8 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
     // unless those are dropped after detection. They are dropped when keeping them and running the
     // detections would take more than half the budget (the rest is for matching and mapping); then
     // they are decoded again for the position refinement. Frames decoded up front are measured.
+    // (Matching then takes two RootSIFT copies a pair matched at once, 8 MiB at 8000 features, out
+    // of the half left.)
     std::uint64_t images = planned.images, task = std::max(planned.load, planned.detection);
     if (decode_up_front) {
       images = task = 0;

@@ -71,6 +71,7 @@ FrameFeatures strongest_features(const FrameFeatures& features, int count) {
 
 std::vector<FeatureMatch> match_descriptors(const cv::Mat& descriptors_a, const cv::Mat& descriptors_b,
                                             double ratio, bool mutual) {
+  CV_Assert(descriptors_a.type() == CV_32F && descriptors_b.type() == CV_32F);
   std::vector<FeatureMatch> matches;
   const cv::Mat a = descriptors_a.isContinuous() ? descriptors_a : descriptors_a.clone();
   const cv::Mat b = descriptors_b.isContinuous() ? descriptors_b : descriptors_b.clone();

@@ -1,6 +1,6 @@
 #pragma once
-// Local features of one frame: SIFT keypoints with RootSIFT descriptors, descriptor matching with the
-// ratio test and a mutual check, and robust two-view verification by a fundamental matrix.
+// Local features of one frame: SIFT keypoints and descriptors (compared as RootSIFT), descriptor
+// matching with the ratio test and a mutual check, and robust two-view verification by a fundamental matrix.
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
