@@ -182,7 +182,9 @@ int main(int argc, char** argv) {
   app.add_option("--downscale", co.downscale, "find features on images shrunk by this factor")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 16.0));
-  app.add_option("--max-features", co.max_features, "SIFT features per image")->capture_default_str();
+  app.add_option("--max-features", co.max_features,
+                 "SIFT features per image (half with --matcher klt or shi-tomasi)")
+      ->capture_default_str();
   app.add_option("--window", co.sequential_window, "match each image with the next N images")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000));

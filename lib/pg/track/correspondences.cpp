@@ -52,6 +52,12 @@ struct WorkingFrame {
   }
 };
 
+// SIFT features kept per frame: max_features, half of it in KLT modes, where SIFT only bridges weak
+// links and closes loops.
+int sift_features_kept(const CorrespondenceOptions& options) {
+  return options.method == CorrespondenceMethod::sift ? options.max_features : options.max_features / 2;
+}
+
 // The size of the working image of a `full`-size image shrunk by `downscale`.
 cv::Size working_size(cv::Size full, double downscale) {
   if (downscale <= 1) return full;
@@ -109,7 +115,7 @@ FrameMemory frame_memory(const SequenceFrame& frame, const CorrespondenceOptions
   const std::uint64_t decoded = decoded_image_bytes_per_pixel(frame.image) + sizeof(float) + 1;
   FrameMemory m;
   m.images = std::uint64_t(working.area()) * planes;
-  m.features = options.max_features * sift_feature_bytes;
+  m.features = std::uint64_t(sift_features_kept(options)) * sift_feature_bytes;
   m.load = std::uint64_t(full->area()) * decoded * planes;
   m.detection = sift_detection_bytes(working) + m.images;
   // Streamed, a frame is decoded beside the one before, then the two are tracked.
@@ -451,7 +457,7 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
         task = std::max(task, sift_detection_bytes(w.gray8.size()));
       }
     }
-    const std::uint64_t features_held = std::uint64_t(n) * options.max_features * sift_feature_bytes;
+    const std::uint64_t features_held = std::uint64_t(n) * sift_features_kept(options) * sift_feature_bytes;
     int at_once = tasks_that_fit(budget, images + features_held, task, threads);
     images_held = !stream_klt &&
                   (decode_up_front || budget == 0 || images + features_held + at_once * task <= budget / 2);
@@ -462,8 +468,7 @@ CorrespondenceResult build_correspondences(const std::vector<SequenceFrame>& fra
                 task >> 20, " MiB each, budget ", budget >> 20, " MiB)");
     parallel_for_bounded(n, at_once, [&](int f) {
       if (!decode_up_front) work[f] = load_frame(frames[f], options.downscale);
-      features[f] =
-          detect_sift(work[f].gray8, work[f].mask, klt ? options.max_features / 2 : options.max_features);
+      features[f] = detect_sift(work[f].gray8, work[f].mask, sift_features_kept(options));
       work[f].mask.release();  // only detection reads masks
       if (!images_held) work[f].gray8.release();
     });

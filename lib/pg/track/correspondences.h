@@ -24,7 +24,7 @@ CorrespondenceMethod correspondence_method_from_string(const std::string& name);
 struct CorrespondenceOptions {
   CorrespondenceMethod method = CorrespondenceMethod::sift;
   double downscale = 1;       // features are found on images shrunk by this factor (>= 1)
-  int max_features = 8000;    // SIFT features kept per frame, strongest first
+  int max_features = 8000;    // SIFT features kept per frame, strongest first (half in KLT modes)
   double ratio = 0.8;         // Lowe's ratio test
   int sequential_window = 3;  // each frame is matched with the next `sequential_window` frames
   // Non-neighbouring pairs: each frame is probed against every frame outside the window with its
