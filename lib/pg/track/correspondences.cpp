@@ -100,8 +100,8 @@ WorkingFrame load_frame(const SequenceFrame& frame, double downscale, bool with_
 // working images and masks, and the most features detect_sift keeps), what load_frame holds while it
 // decodes one frame (the file decoded, its float grey and 8-bit copies, and the same for a mask), one
 // SIFT detection with the image it searches, and KLT tracking into the frame (decoding it beside the
-// frame before, then tracking between the two). For several frames: the
-// sums of what is kept, the largest decode, detection and tracking step.
+// frame before, then tracking between the two). For several frames: the sums of what is kept, the
+// largest decode, detection and tracking step.
 struct FrameMemory {
   std::uint64_t images = 0, features = 0, load = 0, detection = 0, tracking = 0;
   int unknown = 0;  // frames whose size no header told (left out of the rest)
