@@ -113,6 +113,35 @@ TEST(CliFrame, FailedRunStillWritesTheReport) {
   EXPECT_FALSE(j["exit_message"].get<std::string>().empty());
 }
 
+// Whatever order a tool declares its files in, the report and the outputs never replace an input,
+// and no two outputs share a file (one would silently replace the other).
+TEST(CliFrame, NoOutputReplacesAnInputOrAnotherOutput) {
+  TempDir dir;
+  auto r = run_tool("pg-synth", {"checkerboard", "--views", "3", "--out", (dir / "board").string()});
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const fs::path cameras = dir / "board" / "cameras.json";
+  const std::string before = pg::sha256_file(cameras);
+  const std::vector<std::string> eval = {"cameras", "--estimate", cameras.string(), "--truth",
+                                         cameras.string()};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = eval;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_tool("pg-eval", args);
+  };
+  r = with({"--report", cameras.string()});
+  EXPECT_EQ(r.exit_code, 6) << r.stderr_text;
+  EXPECT_NE(r.stderr_text.find("refusing to overwrite an input"), std::string::npos) << r.stderr_text;
+  EXPECT_EQ(pg::sha256_file(cameras), before) << "the failed run's report is not written over the input";
+  r = with({"--out", cameras.string()});
+  EXPECT_EQ(r.exit_code, 6) << r.stderr_text;
+  EXPECT_EQ(pg::sha256_file(cameras), before);
+  r = with({"--out", (dir / "eval.json").string(), "--report", (dir / "eval.json").string()});
+  EXPECT_EQ(r.exit_code, 6) << r.stderr_text;
+  EXPECT_NE(r.stderr_text.find("named for two outputs"), std::string::npos) << r.stderr_text;
+  r = with({"--out", (dir / "eval.json").string(), "--report", (dir / "report.json").string()});
+  EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
+}
+
 TEST(CliFrame, OutputsDoNotDependOnThreadCount) {
   TempDir dir;
   auto a =

@@ -47,6 +47,11 @@ class PgTrack : public ::testing::Test {
 };
 fs::path PgTrack::scene_;
 
+// Whether a run got as far as tracking: pg-track logs the tracks it made before recovering cameras.
+bool tracked(const pg::testing::ToolResult& run) {
+  return run.stderr_text.find(" tracks over ") != std::string::npos;
+}
+
 TEST_F(PgTrack, OrbitWithExactIntrinsicsMeetsTheAccuracyTargets) {
   TempDir out;
   const auto r = run_tool("pg-track", {"--images", (scene() / "images").string(), "--cameras",
@@ -351,6 +356,96 @@ TEST_F(PgTrack, ImagesOfDifferentSizesUnderOneCameraNameTheFrames) {
   EXPECT_EQ(r.exit_code, 3) << r.stderr_text;
   EXPECT_NE(r.stderr_text.find("view_002"), std::string::npos) << r.stderr_text;
   EXPECT_NE(r.stderr_text.find("different sizes"), std::string::npos) << r.stderr_text;
+  EXPECT_FALSE(tracked(r)) << "the headers tell the sizes before any image is tracked";
+}
+
+// Options that cannot be carried out fail before any image is decoded, not after tracking the whole
+// sequence (which takes hours on a long one).
+TEST_F(PgTrack, BadOptionsFailBeforeTracking) {
+  TempDir out;
+  struct Case {
+    std::vector<std::string> args;
+    int exit_code;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {{"--scale", "view_000", "view_099", "1.5"}, 2, "no image named view_099"},
+      {{"--scale", "view_000", "view_001", "1.5m"}, 2, "\"1.5m\" is not a number"},
+      {{"--scale", "view_000", "view_001", "0"}, 2, "must be positive"},
+      {{"--scale", "view_001", "view_001", "1"}, 2, "two different cameras"},
+      {{"--focal", "-800"}, 2, "--focal: must be greater than 0, got -800"},
+      {{"--max-error", "0"}, 2, "--max-error: must be greater than 0"},
+      {{"--max-features", "0"}, 2, "--max-features"},
+      {{"--masks", (out / "no-such-folder").string()}, 3, "not a folder"},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> args = {"--images", (scene() / "images").string(), "--out", out.path().string()};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const auto r = run_tool("pg-track", args);
+    EXPECT_EQ(r.exit_code, c.exit_code) << c.args[0] << ": " << r.stderr_text;
+    EXPECT_NE(r.stderr_text.find(c.message), std::string::npos) << r.stderr_text;
+    EXPECT_FALSE(tracked(r)) << c.args[0];
+  }
+}
+
+// Masks read as in every pg stage (nonzero = ignore, <image stem>.png): with the left quarter of
+// each view masked, no observation lies there, and the views still register from the rest.
+TEST_F(PgTrack, MaskedPixelsGiveNoObservations) {
+  TempDir masks, out;
+  int width = 0;
+  for (const auto& entry : fs::directory_iterator(scene() / "images")) {
+    const cv::Mat image = cv::imread(entry.path().string());
+    width = image.cols;
+    cv::Mat1b mask(image.size(), uchar(0));
+    mask.colRange(0, image.cols / 4).setTo(200);
+    cv::imwrite((masks / (entry.path().stem().string() + ".png")).string(), mask);
+  }
+  const auto r = run_tool("pg-track", {"--images", (scene() / "images").string(), "--cameras",
+                                       (scene() / "cameras.json").string(), "--masks", masks.path().string(),
+                                       "--out", out.path().string()});
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const pg::TrackSet tracks = pg::read_tracks(out / "tracks.json");
+  std::size_t observations = 0, masked = 0;
+  for (const pg::Track& track : tracks.tracks)
+    for (const pg::TrackObservation& o : track.observations) {
+      ++observations;
+      // Position refinement may move a point by up to 2 px from where the detector found it.
+      if (o.x < width / 4.0 - 2.5) ++masked;
+    }
+  EXPECT_GT(observations, 1000u);
+  EXPECT_EQ(masked, 0u);
+  EXPECT_EQ(pg::read_cameras(out / "cameras.json").cameras.size(),
+            pg::read_cameras(scene() / "cameras.json").cameras.size());
+}
+
+// A mask or a calibration of another size than its image, and an image without a camera in a
+// per-image calibration, are found from the file headers before anything is tracked.
+TEST_F(PgTrack, InputsOfTheWrongSizeFailBeforeTracking) {
+  TempDir masks, out;
+  cv::imwrite((masks / "view_003.png").string(), cv::Mat(240, 320, CV_8UC1, cv::Scalar(255)));
+  const auto mask = run_tool("pg-track", {"--images", (scene() / "images").string(), "--masks",
+                                          masks.path().string(), "--out", out.path().string()});
+  EXPECT_EQ(mask.exit_code, 3) << mask.stderr_text;
+  EXPECT_NE(mask.stderr_text.find("view_003.png: mask is 320x240 but image"), std::string::npos)
+      << mask.stderr_text;
+  EXPECT_FALSE(tracked(mask));
+
+  pg::CameraSet cameras = pg::read_cameras(scene() / "cameras.json");
+  ASSERT_GT(cameras.cameras.size(), 4u);
+  cameras.cameras[4].width /= 2;
+  pg::write_cameras(out / "small.json", cameras);
+  cameras.cameras[4].width *= 2;
+  cameras.cameras.erase(cameras.cameras.begin() + 2);
+  pg::write_cameras(out / "missing.json", cameras);
+  const std::vector<std::pair<std::string, std::string>> calibrations = {
+      {"small.json", "camera view_004 is 320x"}, {"missing.json", "has no camera with the id of image"}};
+  for (const auto& [file, message] : calibrations) {
+    const auto r = run_tool("pg-track", {"--images", (scene() / "images").string(), "--cameras",
+                                         (out / file).string(), "--out", (out / "track").string()});
+    EXPECT_EQ(r.exit_code, 3) << r.stderr_text;
+    EXPECT_NE(r.stderr_text.find(message), std::string::npos) << r.stderr_text;
+    EXPECT_FALSE(tracked(r)) << file;
+  }
 }
 
 TEST_F(PgTrack, UnrelatedImagesFailNamingTheProblem) {

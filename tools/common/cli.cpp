@@ -3,6 +3,8 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <csignal>
 #include <fstream>
 #include <iostream>
@@ -89,6 +91,36 @@ std::string exit_code_help() {
          "failed, 5 out of memory, 6 output not writable or would overwrite an input, 130 interrupted.";
 }
 
+namespace {
+
+// A validator for a number that `accept` takes, `wanted` saying what it must be otherwise.
+CLI::Validator number_check(const std::function<bool(double)>& accept, const std::string& wanted,
+                            const std::string& name) {
+  return CLI::Validator(
+      [accept, wanted](std::string& text) -> std::string {
+        double value = 0;
+        std::size_t used = 0;
+        try {
+          value = std::stod(text, &used);
+        } catch (const std::logic_error&) {
+          return "\"" + text + "\" is not a number";
+        }
+        if (used != text.size()) return "\"" + text + "\" is not a number";
+        return accept(value) ? std::string() : "must be " + wanted + ", got " + text;
+      },
+      name, name);
+}
+
+}  // namespace
+
+CLI::Validator positive() {
+  return number_check([](double v) { return v > 0 && std::isfinite(v); }, "greater than 0", "POSITIVE");
+}
+
+CLI::Validator non_negative() {
+  return number_check([](double v) { return v >= 0 && std::isfinite(v); }, "0 or more", "NON-NEGATIVE");
+}
+
 std::uint64_t parse_memory_size(const std::string& text) {
   const std::string problem = str("--max-memory '", text, "' is not a size such as 8G, 512M or 1000000");
   std::size_t used = 0;
@@ -143,11 +175,19 @@ Frame::Frame(ToolInfo info) : info_(std::move(info)), app_(info_.summary, info_.
   app_.fallthrough();  // the common flags also work after a subcommand: `pg-x run --threads 2`
 }
 
+// An input declared after the outputs (or the --report file) is checked against them, so the order
+// in which a tool declares its files does not decide whether an input can be overwritten.
+void Frame::refuse_declared_output(const fs::path& input) const {
+  for (const auto& out : outputs_)
+    if (same_file(out, input)) throw OutputError(out, "refusing to overwrite an input of this run");
+}
+
 void Frame::input(const fs::path& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path, "no such file");
   if (fs::is_directory(path, ec)) throw InputError(path, "is a folder, expected a file");
-  inputs_.push_back(path);
+  inputs_.push_back(path);  // first, so that a refused --report is not written over it either
+  refuse_declared_output(path);
   RunReport::global().add_input(path);
   Provenance::add_current_input(path.string());
 }
@@ -162,15 +202,20 @@ void Frame::input_dir(const fs::path& path) {
 
 void Frame::keep(const fs::path& path) {
   inputs_.push_back(path);
+  refuse_declared_output(path);
 }
 
 void Frame::output(const fs::path& path) {
   for (const auto& in : inputs_)
     if (same_file(in, path)) throw OutputError(path, "refusing to overwrite an input of this run");
+  for (const auto& out : outputs_)
+    if (same_file(out, path))
+      throw OutputError(path, "named for two outputs of this run; one would replace the other");
   fs::path folder = path.parent_path().empty() ? fs::path(".") : path.parent_path();
   std::error_code ec;
   if (!fs::is_directory(folder, ec)) throw OutputError(path, "output folder does not exist");
   if (fs::is_directory(path, ec)) throw OutputError(path, "is a folder, expected a file name");
+  outputs_.push_back(path);
   RunReport::global().add_output(path);
 }
 
@@ -242,7 +287,10 @@ int Frame::run(int argc, char** argv, const std::function<void()>& body) {
   if (code != ExitCode::ok) log::error(message);
 
   RunReport::global().set_exit(int(code), message);
-  if (!report_path_.empty()) {
+  // A --report naming an input was refused when the input was declared; it is not written either.
+  const bool report_is_input = std::any_of(inputs_.begin(), inputs_.end(),
+                                           [&](const fs::path& in) { return same_file(in, report_path_); });
+  if (!report_path_.empty() && !report_is_input) {
     try {
       RunReport::global().write(report_path_);
     } catch (const std::exception& e) {

@@ -33,15 +33,16 @@ class Frame {
   // The --max-memory budget in bytes; 0 = no limit. Also readable anywhere through memory_budget().
   std::uint64_t max_memory() const { return max_memory_; }
 
-  // Declares an input file: it must exist (InputError otherwise); recorded in the report/provenance.
+  // Declares an input file: it must exist (InputError otherwise) and not be a declared output
+  // (OutputError); recorded in the report/provenance.
   void input(const std::filesystem::path& path);
   // Declares an input folder.
   void input_dir(const std::filesystem::path& path);
   // Declares a file the run names but does not read (another farm chunk's input): outputs may not
   // overwrite it, but it need not exist and is not recorded as an input.
   void keep(const std::filesystem::path& path);
-  // Declares an output file: refused (OutputError) if it is one of the declared inputs or its
-  // folder is missing; recorded in the report.
+  // Declares an output file: refused (OutputError) if it is one of the declared inputs or outputs
+  // (the --report file included), or its folder is missing; recorded in the report.
   void output(const std::filesystem::path& path);
   // Declares an output folder, created if missing; refused if it is a declared input folder.
   void output_dir(const std::filesystem::path& path);
@@ -60,11 +61,19 @@ class Frame {
   int threads_ = 0;
   std::string max_memory_text_;
   std::uint64_t max_memory_ = 0;
+  void refuse_declared_output(const std::filesystem::path& input) const;
+
   std::vector<std::filesystem::path> inputs_;  // and the kept files (keep)
+  std::vector<std::filesystem::path> outputs_;
   std::vector<std::filesystem::path> input_dirs_;
 };
 
 std::string exit_code_help();
+
+// Option checks whose messages read "must be greater than 0, got -3" (CLI11's PositiveNumber and
+// NonNegativeNumber print the largest double as the range's end).
+CLI::Validator positive();
+CLI::Validator non_negative();
 
 // "8G", "512M", "64K" or a byte count -> bytes; UsageError naming --max-memory otherwise.
 std::uint64_t parse_memory_size(const std::string& text);

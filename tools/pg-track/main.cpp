@@ -1,6 +1,7 @@
 // pg-track: sparse correspondences across an ordered image sequence and camera recovery with bundle
 // adjustment. Writes cameras.json, points.ply, tracks.json and top_view.png into --out.
 #include <algorithm>
+#include <cmath>
 #include <iostream>
 
 #include "common/cli.h"
@@ -79,26 +80,81 @@ std::string image_path_from(const fs::path& out_dir, const fs::path& image) {
   return relative.empty() ? fs::absolute(image).lexically_normal().string() : relative.generic_string();
 }
 
+// The calibration --cameras gives frame f: the file's one camera, or the camera with the frame's id.
+const pg::Camera& given_camera(const Options& o, const pg::CameraSet& set, const pg::SequenceFrame& frame) {
+  if (set.cameras.size() == 1) return set.cameras[0];
+  if (const pg::Camera* c = set.find(frame.id)) return *c;
+  throw pg::InputError(
+      o.cameras, pg::str("has no camera with the id of image ", frame.image.string(), " ('", frame.id, "')"));
+}
+
+void require_camera_size(const Options& o, const pg::Camera& camera, const pg::SequenceFrame& frame,
+                         cv::Size size) {
+  if (camera.width != size.width || camera.height != size.height)
+    throw pg::InputError(
+        o.cameras, pg::str("camera ", camera.id, " is ", camera.width, "x", camera.height, " but image ",
+                           frame.image.string(), " is ", size.width, "x", size.height));
+}
+
+// What can be checked before any image is decoded, from the files' headers: each frame's camera and
+// its size (with --cameras), or one size for the one self-calibrated camera, and masks of their
+// images' size. Frames in a format without a size in its header are checked once decoded.
+void check_frame_sizes(const Options& o, const std::vector<pg::SequenceFrame>& frames,
+                       const std::optional<pg::CameraSet>& given) {
+  const std::vector<std::optional<cv::Size>> sizes = pg::sequence_image_sizes(frames);
+  const pg::SequenceFrame* first = nullptr;
+  cv::Size first_size;
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    if (given) {
+      const pg::Camera& camera = given_camera(o, *given, frames[f]);
+      if (sizes[f]) require_camera_size(o, camera, frames[f], *sizes[f]);
+    } else if (sizes[f] && !first) {
+      first = &frames[f], first_size = *sizes[f];
+    } else if (sizes[f] && *sizes[f] != first_size) {
+      throw pg::InputError(frames[f].image,
+                           pg::str("frame ", frames[f].id, " is ", sizes[f]->width, "x", sizes[f]->height,
+                                   " but frame ", first->id, " is ", first_size.width, "x", first_size.height,
+                                   "; one camera cannot take images of different sizes"));
+    }
+  }
+}
+
+// --scale ID_A ID_B METRES, checked against the frames before tracking.
+struct ScaleSpec {
+  std::string id_a, id_b;
+  double metres = 0;
+};
+
+std::optional<ScaleSpec> parse_scale(const Options& o, const std::vector<pg::SequenceFrame>& frames) {
+  if (o.scale.empty()) return std::nullopt;
+  ScaleSpec spec{o.scale[0], o.scale[1], 0};
+  try {
+    std::size_t used = 0;
+    spec.metres = std::stod(o.scale[2], &used);
+    if (used != o.scale[2].size()) throw std::invalid_argument("trailing characters");
+  } catch (const std::logic_error&) {
+    throw pg::UsageError("--scale: distance \"" + o.scale[2] + "\" is not a number");
+  }
+  if (!(spec.metres > 0) || !std::isfinite(spec.metres))
+    throw pg::UsageError(pg::str("--scale: the distance must be positive, got ", o.scale[2]));
+  if (spec.id_a == spec.id_b)
+    throw pg::UsageError("--scale: give two different cameras, got " + spec.id_a + " twice");
+  for (const std::string& id : {spec.id_a, spec.id_b})
+    if (std::none_of(frames.begin(), frames.end(), [&](const pg::SequenceFrame& f) { return f.id == id; }))
+      throw pg::UsageError(pg::str("--scale: no image named ", id, " among the ", frames.size(),
+                                   " tracked (ids are the file names without extension)"));
+  return spec;
+}
+
 // Initial cameras: from --cameras (one camera for all frames, or one per frame id), else self-calibration.
 std::vector<pg::Camera> initial_cameras(const Options& o, const std::vector<pg::SequenceFrame>& frames,
-                                        const pg::TrackSet& tracks, bool& per_frame, bool& given) {
+                                        const pg::TrackSet& tracks,
+                                        const std::optional<pg::CameraSet>& given) {
   std::vector<pg::Camera> cameras;
-  per_frame = false;
-  given = !o.cameras.empty();
   if (given) {
-    const pg::CameraSet set = pg::read_cameras(o.cameras);
-    if (set.cameras.empty()) throw pg::InputError(o.cameras, "holds no camera");
-    per_frame = set.cameras.size() > 1;
     for (std::size_t f = 0; f < frames.size(); ++f) {
-      const pg::Camera* c = per_frame ? set.find(frames[f].id) : &set.cameras[0];
-      if (!c)
-        throw pg::InputError(o.cameras, pg::str("has no camera with the id of image ",
-                                                frames[f].image.string(), " ('", frames[f].id, "')"));
-      if (c->width != tracks.frames[f].width || c->height != tracks.frames[f].height)
-        throw pg::InputError(o.cameras, pg::str("camera ", c->id, " is ", c->width, "x", c->height,
-                                                " but image ", frames[f].image.string(), " is ",
-                                                tracks.frames[f].width, "x", tracks.frames[f].height));
-      pg::Camera cam = *c;
+      pg::Camera cam = given_camera(o, *given, frames[f]);
+      require_camera_size(o, cam, frames[f], {tracks.frames[f].width, tracks.frames[f].height});
       cam.image = image_path_from(o.out, frames[f].image);
       cameras.push_back(cam);
     }
@@ -165,7 +221,8 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"auto", "fixed", "refine"}));
   app.add_option("--focal", o.focal,
                  "initial focal length in pixels without --cameras (default: from the images' EXIF, else 1.2 "
-                 "x the larger side)");
+                 "x the larger side)")
+      ->check(pg::cli::positive());
   app.add_flag("--refine-distortion", o.refine_distortion, "also refine radial k1, k2");
   app.add_option("--principal-point", o.principal_point,
                  "while intrinsics are refined: auto (one shared camera's principal point is freed in the "
@@ -174,7 +231,9 @@ int main(int argc, char** argv) {
                  "the calibration's)")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "refine", "fixed"}));
-  app.add_option("--masks", o.masks, "folder of masks named like the images (<stem>.png); non-zero = usable");
+  app.add_option(
+      "--masks", o.masks,
+      "folder of masks named like the images (<stem>.png), nonzero = ignore (moving objects, sky, rigs)");
   app.add_option("--range", o.range, "START:COUNT, track a sub-sequence of the images");
   app.add_option("--matcher", o.matcher, "sift, klt or shi-tomasi")
       ->capture_default_str()
@@ -184,7 +243,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1.0, 16.0));
   app.add_option("--max-features", co.max_features,
                  "SIFT features per image (half with --matcher klt or shi-tomasi)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000000));
   app.add_option("--window", co.sequential_window, "match each image with the next N images")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000));
@@ -195,7 +255,8 @@ int main(int argc, char** argv) {
   app.add_option("--max-error", so.max_reprojection_px,
                  "largest reprojection error of an inlier, pixels (the bound follows the observations' "
                  "noise below it)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(pg::cli::positive());
   app.add_option("--error-sigmas", so.bound_sigmas,
                  "after registration, the inlier bound in robust standard deviations of the "
                  "reprojection error, from 0.1 px up to --max-error (0: always --max-error)")
@@ -228,18 +289,33 @@ int main(int argc, char** argv) {
     for (const fs::path& p : images) frame.input(p);
     if (!o.cameras.empty()) frame.input(o.cameras);
     frame.output_dir(o.out);
+    if (!o.masks.empty() && !fs::is_directory(o.masks))
+      throw pg::InputError(o.masks, "--masks: not a folder (masks are <image stem>.png in one folder)");
     std::vector<pg::SequenceFrame> frames;
+    int masked = 0;
     for (const fs::path& p : images) {
       pg::SequenceFrame f{p.stem().string(), p, {}};
       if (!o.masks.empty()) {
         const fs::path mask = fs::path(o.masks) / (p.stem().string() + ".png");
-        if (fs::exists(mask)) f.mask = mask, frame.input(mask);
+        if (fs::exists(mask)) f.mask = mask, frame.input(mask), ++masked;
       }
       for (const pg::SequenceFrame& g : frames)
         if (g.id == f.id)
           throw pg::UsageError(pg::str("two images named ", f.id, ": ", g.image.string(), ", ", p.string()));
       frames.push_back(f);
     }
+    if (!o.masks.empty()) {
+      pg::log::info("pg-track: ", masked, " of ", frames.size(), " images have a mask in ", o.masks);
+      if (masked == 0)
+        pg::log::warn("pg-track: no mask in ", o.masks, " is named like an image (<image stem>.png)");
+    }
+    const std::optional<ScaleSpec> scale = parse_scale(o, frames);
+    std::optional<pg::CameraSet> given;
+    if (!o.cameras.empty()) {
+      given = pg::read_cameras(o.cameras);
+      if (given->cameras.empty()) throw pg::InputError(o.cameras, "holds no camera");
+    }
+    check_frame_sizes(o, frames, given);
 
     co.method = pg::correspondence_method_from_string(o.matcher);
     co.loop_matching = !o.no_loops;
@@ -258,8 +334,8 @@ int main(int argc, char** argv) {
     pg::log::info("pg-track: ", correspondences.tracks.tracks.size(), " tracks over ", frames.size(),
                   " images");
 
-    bool per_frame = false, given = false;
-    std::vector<pg::Camera> initial = initial_cameras(o, frames, correspondences.tracks, per_frame, given);
+    const bool per_frame = given && given->cameras.size() > 1;
+    std::vector<pg::Camera> initial = initial_cameras(o, frames, correspondences.tracks, given);
     const bool refine = o.intrinsics == "refine" || (o.intrinsics == "auto" && !given);
     so.shared_intrinsics = !per_frame;
     so.refine_focal = refine;
@@ -277,8 +353,8 @@ int main(int argc, char** argv) {
       pg::ScopedTimer timer("reconstruction");
       result = pg::reconstruct(correspondences.tracks, initial, so);
     }
-    if (!o.scale.empty()) {
-      const double s = pg::scale_to_distance(result, o.scale[0], o.scale[1], std::stod(o.scale[2]));
+    if (scale) {
+      const double s = pg::scale_to_distance(result, scale->id_a, scale->id_b, scale->metres);
       pg::log::info("pg-track: scaled by ", s);
     }
     if (board) {

@@ -150,7 +150,8 @@ double scale_to_distance(SfmResult& result, const std::string& id_a, const std::
   auto index_of = [&](const std::string& id) {
     for (std::size_t f = 0; f < result.cameras.size(); ++f)
       if (result.cameras[f].id == id) {
-        if (!result.registered[f]) throw UsageError(str("--scale: camera ", id, " was not registered"));
+        if (!result.registered[f])
+          throw FailedError(str("--scale: camera ", id, " was not registered, so it cannot set the scale"));
         return f;
       }
     throw UsageError(str("--scale: no camera ", id));
@@ -158,8 +159,8 @@ double scale_to_distance(SfmResult& result, const std::string& id_a, const std::
   const std::size_t a = index_of(id_a), b = index_of(id_b);
   const double current =
       (result.cameras[a].cam_from_world.centre() - result.cameras[b].cam_from_world.centre()).norm();
-  if (!(current > 0) || !(distance > 0))
-    throw UsageError("--scale: the two cameras coincide or the distance is not positive");
+  if (!(distance > 0)) throw UsageError("--scale: the distance is not positive");
+  if (!(current > 0)) throw FailedError(str("--scale: cameras ", id_a, " and ", id_b, " coincide"));
   const double s = distance / current;
   scale_reconstruction(result, s);
   return s;

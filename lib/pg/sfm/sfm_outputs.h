@@ -29,7 +29,8 @@ void write_sparse_points(const std::filesystem::path& path, const SfmResult& res
 cv::Mat render_top_view(const SfmResult& result, int size = 800, double max_rms_px = 2.0);
 
 // Scales the reconstruction so that cameras `id_a` and `id_b` are `distance` apart. Throws UsageError
-// when an id is unknown or unregistered or the two centres coincide. Returns the scale applied.
+// when an id is unknown or the distance is not positive, FailedError when a camera was not registered
+// or the two centres coincide. Returns the scale applied.
 double scale_to_distance(SfmResult& result, const std::string& id_a, const std::string& id_b,
                          double distance);
 

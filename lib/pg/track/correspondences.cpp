@@ -65,6 +65,12 @@ cv::Size working_size(cv::Size full, double downscale) {
           std::max(1, static_cast<int>(std::lround(full.height / downscale)))};
 }
 
+void require_mask_size(const SequenceFrame& frame, cv::Size mask, cv::Size image) {
+  if (mask != image)
+    throw InputError(frame.mask, str("mask is ", mask.width, "x", mask.height, " but image ",
+                                     frame.image.string(), " is ", image.width, "x", image.height));
+}
+
 // The frame's working image, and its mask unless `with_mask` is false.
 WorkingFrame load_frame(const SequenceFrame& frame, double downscale, bool with_mask = true) {
   WorkingFrame w;
@@ -74,11 +80,9 @@ WorkingFrame load_frame(const SequenceFrame& frame, double downscale, bool with_
   cv::Mat mask;
   if (with_mask && !frame.mask.empty()) {
     mask = read_image(frame.mask, ReadMode::gray_float);
-    if (mask.size() != gray.size())
-      throw InputError(frame.mask, str("mask is ", mask.cols, "x", mask.rows, " but image ",
-                                       frame.image.string(), " is ", gray.cols, "x", gray.rows));
-    cv::Mat m8 = mask > 0.5f;
-    w.mask = m8;
+    require_mask_size(frame, mask.size(), gray.size());
+    cv::Mat usable = mask == 0.0f;  // nonzero = ignore, as every pg stage reads a mask
+    w.mask = usable;
   }
   if (downscale > 1) {
     const cv::Size size = working_size(gray.size(), downscale);
@@ -354,6 +358,17 @@ int enforce_track_consistency(std::vector<Track>& tracks, const std::vector<Veri
   }
   tracks = std::move(kept);
   return removed;
+}
+
+std::vector<std::optional<cv::Size>> sequence_image_sizes(const std::vector<SequenceFrame>& frames) {
+  std::vector<std::optional<cv::Size>> sizes;
+  for (const SequenceFrame& frame : frames) {
+    sizes.push_back(peek_image_size(frame.image));
+    if (frame.mask.empty()) continue;
+    const std::optional<cv::Size> mask = peek_image_size(frame.mask);
+    if (mask && sizes.back()) require_mask_size(frame, *mask, *sizes.back());
+  }
+  return sizes;
 }
 
 std::uint64_t correspondence_memory_bytes(const std::vector<SequenceFrame>& frames,

@@ -4,6 +4,7 @@
 // merge of pairwise matches into multi-frame tracks.
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -56,7 +57,7 @@ struct CorrespondenceOptions {
 struct SequenceFrame {
   std::string id;
   std::filesystem::path image;
-  std::filesystem::path mask;  // empty: none; otherwise non-zero pixels are usable
+  std::filesystem::path mask;  // empty: none; otherwise nonzero pixels are ignored
 };
 
 struct VerifiedPair {
@@ -82,6 +83,12 @@ struct CorrespondenceResult {
 // InputError for a missing or corrupt file.
 std::uint64_t correspondence_memory_bytes(const std::vector<SequenceFrame>& frames,
                                           const CorrespondenceOptions& options);
+
+// Each frame's image size as its file header gives it, or nullopt for a format without a size in its
+// header (PNG, JPEG, OpenEXR and Radiance have one). Reads headers only, so a long sequence is checked
+// in moments: throws InputError for a missing or corrupt file, or for a mask whose header gives
+// another size than its image's (build_correspondences checks the rest once decoded).
+std::vector<std::optional<cv::Size>> sequence_image_sizes(const std::vector<SequenceFrame>& frames);
 
 // Throws InputError for unreadable images or masks of a different size than their image,
 // UsageError for fewer than 2 frames.
