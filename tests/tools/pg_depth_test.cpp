@@ -61,6 +61,10 @@ TEST(PgDepth, ConsecutivePairsGiveAccurateDepthMapsAndOptionalOutputs) {
   EXPECT_FALSE(fs::exists(out / "view_0-view_2.exr"));
   const pg::DepthMap map = pg::read_depth_exr(out / "view_1-view_2.exr");
   EXPECT_EQ(map.camera.id, "view_1");
+  // Its provenance names its own pair's images, not the other pair's.
+  const std::string inputs = nlohmann::json(map.provenance.inputs).dump();
+  EXPECT_NE(inputs.find("view_2.png"), std::string::npos) << inputs;
+  EXPECT_EQ(inputs.find("view_0.png"), std::string::npos) << inputs;
   EXPECT_FALSE(map.confidence.empty());
   EXPECT_FALSE(map.normals.empty());
   double coverage = 0;
@@ -140,6 +144,19 @@ TEST(PgDepth, BadInputsGiveClearErrors) {
                {"--cameras", (shot.dir / "same.json").string(), "--out-dir", out, "--pair", "view_0:view_2"});
   EXPECT_EQ(r.exit_code, 3);
   EXPECT_NE(r.stderr_text.find("same centre"), std::string::npos);
+  // A pair of cameras of two sizes (each image its camera's size), after a good pair: found before the
+  // good pair is computed.
+  set = pg::read_cameras(cameras);
+  set.cameras[2].width = set.cameras[2].height = 10;
+  pg::write_cameras(shot.dir / "sizes.json", set);
+  r = run_tool("pg-depth", {"--cameras", (shot.dir / "sizes.json").string(), "--out-dir", out});
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.stderr_text.find("differ in size"), std::string::npos) << r.stderr_text;
+  EXPECT_FALSE(fs::exists(shot.dir / "o" / "view_0-view_1.exr"));
+  // A mistyped masks folder is an error, not a run without masks.
+  r = run_tool("pg-depth", {"--cameras", cameras, "--out-dir", out, "--masks", (shot.dir / "maks").string()});
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.stderr_text.find("maks: no such folder"), std::string::npos) << r.stderr_text;
 }
 
 }  // namespace

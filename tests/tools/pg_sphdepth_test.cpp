@@ -200,6 +200,16 @@ TEST(PgSphdepth, HorizontalPairOfTheRoomGivesAccurateRanges) {
             << m.coverage_outside_poles << "\n";
   EXPECT_LT(m.eval.relative_error.median, 0.02);
   EXPECT_GE(m.coverage_outside_poles, 0.85);
+
+  // --alpha weighs the smoothness of the flow along the meridians (it once set a weight that mode
+  // does not read, and changed nothing).
+  const auto smooth = run_tool("pg-sphdepth", {"--cameras", cameras.string(), "--out-dir",
+                                               (dir / "smooth").string(), "--alpha", "30"});
+  ASSERT_EQ(smooth.exit_code, 0) << smooth.stderr_text;
+  const cv::Mat a = pg::read_depth_exr(out / "pano_lower.exr").depth;
+  const cv::Mat b = pg::read_depth_exr(dir / "smooth" / "pano_lower.exr").depth;
+  cv::Mat differ = (a != b) & (a == a) & (b == b);  // finite in both, and different
+  EXPECT_GT(cv::countNonZero(differ), int(a.total() / 10));
 }
 
 TEST(PgSphdepth, HdrPanoramasWithAnOffsetAreMatchedUnclipped) {

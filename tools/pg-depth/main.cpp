@@ -1,4 +1,5 @@
 // pg-depth: depth maps from image pairs by variational optical flow and triangulation.
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <optional>
@@ -113,6 +114,12 @@ void check_pair_inputs(const Options& o, const pg::CameraSet& set, const std::ve
     if ((reference.cam_from_world.centre() - other.cam_from_world.centre()).norm() == 0)
       throw pg::InputError(o.cameras, "cameras '" + ids.reference + "' and '" + ids.other +
                                           "' have the same centre: no baseline to triangulate");
+    if (reference.width != other.width || reference.height != other.height)
+      throw pg::InputError(o.cameras,
+                           pg::str("cameras '", ids.reference, "' (", reference.width, "x", reference.height,
+                                   ") and '", ids.other, "' (", other.width, "x", other.height,
+                                   ") differ in size; a pair's views must "
+                                   "have one size"));
     for (const pg::Camera* camera : {&reference, &other}) {
       check_header(image_path(o.cameras, *camera), *camera, "image");
       if (const fs::path mask = mask_path(o, *camera); !mask.empty()) check_header(mask, *camera, "mask");
@@ -202,11 +209,28 @@ int main(int argc, char** argv) {
                "also write REF-OTHER-flow.png: the flow (formats/flow-visualisation.md)");
   return frame.run(argc, argv, [&] {
     frame.input(o.cameras);
+    if (!o.masks.empty()) frame.input_dir(o.masks);
     const pg::DepthPairOptions options = pair_options(o);
     const pg::CameraSet set = pg::read_cameras(o.cameras);
     const std::vector<PairIds> pairs = parse_pairs(o, set);
     check_pair_inputs(o, set, pairs);
     require_memory(o, set, pairs, options);
+    // Every pair's files are declared before any output, so no pair overwrites a later pair's input;
+    // each output's provenance names its own pair's files.
+    const auto pair_files = [&](const PairIds& ids) {
+      std::vector<fs::path> files;
+      for (const std::string& id : {ids.reference, ids.other}) {
+        const pg::Camera& camera = *set.find(id);
+        files.push_back(image_path(o.cameras, camera));
+        if (fs::path mask = mask_path(o, camera); !mask.empty()) files.push_back(mask);
+      }
+      return files;
+    };
+    std::vector<fs::path> declared;
+    for (const PairIds& ids : pairs)
+      for (const fs::path& file : pair_files(ids))
+        if (std::find(declared.begin(), declared.end(), file) == declared.end())
+          frame.input(file), declared.push_back(file);
     frame.output_dir(o.out_dir);
     const fs::path out_dir = o.out_dir;
     std::size_t valid = 0, total = 0, filled = 0;
@@ -217,8 +241,9 @@ int main(int argc, char** argv) {
       input.other = *set.find(ids.other);
       const fs::path ref_path = image_path(o.cameras, input.reference);
       const fs::path other_path = image_path(o.cameras, input.other);
-      frame.input(ref_path);
-      frame.input(other_path);
+      pg::Provenance provenance = pg::Provenance::current();
+      provenance.inputs = {o.cameras};
+      for (const fs::path& file : pair_files(ids)) provenance.inputs.push_back(file.string());
       input.reference_image = read_view(ref_path, input.reference);
       input.other_image = read_view(other_path, input.other);
       input.reference_mask = read_mask(o, input.reference);
@@ -227,7 +252,7 @@ int main(int argc, char** argv) {
         throw pg::InputError(other_path, "has a different channel count from " + ref_path.string());
 
       pg::DepthPairResult result = pg::compute_depth_pair(input, options);
-      result.depth.map.provenance = pg::Provenance::current();
+      result.depth.map.provenance = provenance;
       const std::string stem = ids.reference + "-" + ids.other;
       const fs::path exr = out_dir / (stem + ".exr");
       frame.output(exr);
@@ -238,14 +263,14 @@ int main(int argc, char** argv) {
         const fs::path path = out_dir / (stem + ".ply");
         frame.output(path);
         pg::PointCloud cloud = pg::depth_point_cloud(result.depth.map, colours);
-        cloud.provenance = pg::Provenance::current();
+        cloud.provenance = provenance;
         pg::write_point_cloud_ply(path, cloud);
       }
       if (o.mesh) {
         const fs::path path = out_dir / (stem + "-mesh.ply");
         frame.output(path);
         pg::Mesh mesh = pg::depth_grid_mesh(result.depth.map, colours);
-        mesh.provenance = pg::Provenance::current();
+        mesh.provenance = provenance;
         pg::write_mesh(path, mesh);
       }
       if (o.preview) {

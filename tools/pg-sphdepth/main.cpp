@@ -163,7 +163,8 @@ int main(int argc, char** argv) {
   app.add_option("--out-dir", o.out_dir, "folder for STEM.exr, STEM-mesh.ply and STEM-range.png")->required();
   app.add_option("--stem", o.stem, "output name stem (default: the reference's file stem or camera id)");
   app.add_option("--preset", o.preset, "flow settings: fast, balanced (default) or accurate");
-  app.add_option("--alpha", o.alpha, "flow smoothness weight (default from the preset: 1)");
+  app.add_option("--alpha", o.alpha, "flow smoothness weight (default from the preset: 3)")
+      ->check(pg::cli::positive());
   app.add_option("--scale", o.depth.scale, "resolution of the computation and outputs, in (0, 1]");
   app.add_option("--pole-band", o.depth.pole_band_deg, "degrees around the baseline axis left invalid (10)");
   app.add_option("--max-fb-error", o.depth.max_fb_error, "forward-backward limit, rectified pixels (0.5)");
@@ -180,7 +181,8 @@ int main(int argc, char** argv) {
     if (o.mesh_format != "ply" && o.mesh_format != "obj")
       throw pg::UsageError("--mesh-format must be ply or obj");
     o.depth.flow = pg::FlowOptions::preset(o.preset);
-    if (o.alpha > 0) o.depth.flow.alpha = o.alpha;
+    // The panoramas' flow runs along meridians, in the epipolar mode, which has its own weight.
+    if (o.alpha > 0) o.depth.flow.epipolar_alpha = o.alpha;
     o.depth.check();
     if (!o.cameras.empty() && (!o.reference.empty() || !o.other.empty() || !o.offset.empty()))
       throw pg::UsageError("--cameras replaces --reference, --other and --offset; give one or the other");

@@ -7,6 +7,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -118,8 +119,12 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
           outcome(y, x) = textureless;
           continue;
         }
-        if (!input.other_mask.empty() && input.other_mask(static_cast<int>(std::lround(target.y())),
-                                                          static_cast<int>(std::lround(target.x()))) != 0) {
+        // The nearest pixel; in_image lets a target reach half a pixel past the edge centres.
+        const auto nearest = [](double v, int size) {
+          return std::clamp(static_cast<int>(std::floor(v + 0.5)), 0, size - 1);
+        };
+        if (!input.other_mask.empty() && input.other_mask(nearest(target.y(), input.other_mask.rows),
+                                                          nearest(target.x(), input.other_mask.cols)) != 0) {
           outcome(y, x) = masked;
           continue;
         }

@@ -62,8 +62,16 @@ DepthPairResult compute_depth_pair(const DepthPairInput& input, const DepthPairO
                        : compute_flow_bidirectional(ref_image, other_image, options.flow);
   cv::Mat1b filled;
   if (options.fill_occlusions) {  // the pixels the depth filter's own consistency check rejects
-    filled = occlusion_mask(flow.fb_error, flow.forward, options.filter.max_fb_error, fb_error_per_flow);
-    flow.forward = fill_occlusions_along_lines(flow.forward, filled, forward_field);
+    const cv::Mat1b occluded =
+        occlusion_mask(flow.fb_error, flow.forward, options.filter.max_fb_error, fb_error_per_flow);
+    const cv::Mat2f filled_flow = fill_occlusions_along_lines(flow.forward, occluded, forward_field);
+    // A hidden pixel with no background along its line keeps its own flow, which failed the check:
+    // it is not filled, and the check still applies to it.
+    filled = cv::Mat1b(occluded.size(), uchar(0));
+    for (int y = 0; y < filled.rows; ++y)
+      for (int x = 0; x < filled.cols; ++x)
+        filled(y, x) = occluded(y, x) && filled_flow(y, x) != flow.forward(y, x) ? 255 : 0;
+    flow.forward = filled_flow;
     result.filled = static_cast<std::size_t>(cv::countNonZero(filled));
   }
   result.flow_seconds = seconds_since(flow_start);
