@@ -66,6 +66,33 @@ TEST(PgCalib, StereoPairBaseline) {
   ASSERT_EQ(set.rigs.size(), 1u);
   EXPECT_NEAR(set.cameras[1].cam_from_world.translation.norm(), 0.0832, 0.001);
   EXPECT_NEAR(read_json(tmp / "rig.calibration.json")["stereo"]["baseline_m"].get<double>(), 0.0832, 0.001);
+
+  // The rig flattens: one of its cameras over --images (the images leave the rig), each camera its
+  // own image (the rig stays), or one camera alone (the rig, half flattened, goes).
+  const auto flatten = [&](const fs::path& cameras, std::vector<std::string> extra, const std::string& out) {
+    std::vector<std::string> args = {"flatten", "--cameras", cameras.string(), "--out", (tmp / out).string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto run = run_tool("pg-calib", args);
+    EXPECT_EQ(run.exit_code, 0) << run.stderr_text;
+    return pg::read_cameras(tmp / out / "cameras.json");
+  };
+  pg::CameraSet flat =
+      flatten(tmp / "rig.json", {"--camera-id", "left", "--images", (dir / "left12.jpg").string()}, "a");
+  ASSERT_EQ(flat.cameras.size(), 1u);
+  EXPECT_TRUE(flat.rigs.empty());
+  EXPECT_FALSE(flat.cameras[0].rig);
+  pg::CameraSet with_images = set;
+  with_images.cameras[0].image = (dir / "left12.jpg").string();
+  with_images.cameras[1].image = (dir / "right12.jpg").string();
+  pg::write_cameras(tmp / "rig-images.json", with_images);
+  flat = flatten(tmp / "rig-images.json", {}, "b");
+  ASSERT_EQ(flat.cameras.size(), 2u);
+  ASSERT_EQ(flat.rigs.size(), 1u);
+  EXPECT_EQ(flat.cameras[1].rig, set.rigs[0].id);
+  flat = flatten(tmp / "rig-images.json", {"--camera-id", "right"}, "c");
+  ASSERT_EQ(flat.cameras.size(), 1u);
+  EXPECT_TRUE(flat.rigs.empty());
+  EXPECT_FALSE(flat.cameras[0].rig);
 }
 
 TEST(PgCalib, FlattenKeepsBitDepthAndStraightensLines) {

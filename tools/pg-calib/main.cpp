@@ -288,7 +288,6 @@ void run_flatten(cli::Frame& frame, const std::string& cameras_path, const std::
   frame.output(cameras_out);
 
   CameraSet flattened;
-  flattened.rigs = source.rigs;
   std::map<std::string, FlattenMaps> cache;  // maps by camera parameters' identity (same camera, same maps)
   double valid = 1;
   for (const Job& job : jobs) {
@@ -318,7 +317,16 @@ void run_flatten(cli::Frame& frame, const std::string& cameras_path, const std::
     c.quality = job.camera.quality;
     flattened.cameras.push_back(c);
   }
-  if (!images.empty()) flattened.rigs.clear();
+  // A rig stays when every camera it names was flattened (each camera its own image); a camera whose
+  // rig did not stay, or that flattened --images under another id, leaves it.
+  for (const Rig& rig : source.rigs)
+    if (images.empty() && std::all_of(rig.camera_ids.begin(), rig.camera_ids.end(),
+                                      [&](const std::string& id) { return flattened.find(id) != nullptr; }))
+      flattened.rigs.push_back(rig);
+  for (Camera& c : flattened.cameras)
+    if (c.rig && std::none_of(flattened.rigs.begin(), flattened.rigs.end(),
+                              [&](const Rig& rig) { return rig.id == *c.rig; }))
+      c.rig.reset();
   write_cameras(cameras_out, flattened);
   const Intrinsics& k = flattened.cameras.front().intrinsics;
   log::info("flattened ", jobs.size(), " images, alpha ", alpha, ": f ", k.fx, " cx ", k.cx, " cy ", k.cy,
@@ -353,7 +361,7 @@ int main(int argc, char** argv) {
   cal->add_option("--stereo-images", stereo_images,
                   "a second camera's images of the same board positions, paired in sorted order");
   cal->add_option("--board", board_text, "inner corners COLSxROWS, e.g. 9x6")->required();
-  cal->add_option("--square", square, "square size in metres")->required()->check(CLI::PositiveNumber);
+  cal->add_option("--square", square, "square size in metres")->required()->check(pg::cli::positive());
   cal->add_option("--model", model_name, "pinhole-k3 (k1 k2 p1 p2 k3), rational (k1..k6, p1, p2) or fisheye")
       ->capture_default_str()
       ->check(CLI::IsMember({"pinhole-k3", "rational", "fisheye"}));
@@ -366,11 +374,11 @@ int main(int argc, char** argv) {
   cal->add_option("--max-view-rms", options.max_view_rms,
                   "drop views above this RMS in px, worst first (0: max(0.5, 3 x median))")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
   cal->add_option("--corner-outliers", options.corner_outlier_sigmas,
                   "reject corners beyond this many robust sigmas (0: keep all)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
   cal->add_flag("--board-warp", options.board_warp, "model a non-flat board (2 parameters, as mrcal)");
   cal->add_flag("--no-refine", no_refine,
                 "keep OpenCV's estimate (no Ceres refinement, no corner rejection)");
