@@ -97,6 +97,26 @@ TEST(PgMergePoints, ColouredPointsGiveAColouredMesh) {
     ++checked;
   }
   EXPECT_GT(checked, merged.vertex_count() / 2);
+
+  // Split over two farm jobs, one of them without colour: the combined mesh has colour whichever
+  // partial comes first.
+  fusion::testing::write_plain_points(dir / "grey.ply",
+                                      fusion::testing::lidar_sweep(room(), sensor, 120, 60));
+  for (const auto& [scan, name] : {std::pair{"sweep.ply", "coloured"}, std::pair{"grey.ply", "plain"}}) {
+    const auto job = run_tool("pg-merge", volume_args(dir / scan, dir / (std::string(name) + ".ply"),
+                                                      {"--sensor-origin", "0.25,-0.5,1.25", "--vdb",
+                                                       (dir / (std::string(name) + ".vdb")).string()}));
+    ASSERT_EQ(job.exit_code, 0) << job.stderr_text;
+  }
+  for (const auto& order : {std::vector<std::string>{"plain.vdb", "coloured.vdb"},
+                            std::vector<std::string>{"coloured.vdb", "plain.vdb"}}) {
+    const auto combined =
+        run_tool("pg-merge", {"combine", "--partials", (dir / order[0]).string(), (dir / order[1]).string(),
+                              "--out", (dir / "c.ply").string()});
+    ASSERT_EQ(combined.exit_code, 0) << combined.stderr_text;
+    const Mesh mesh = read_mesh(dir / "c.ply");
+    EXPECT_EQ(mesh.colors.size(), mesh.vertex_count()) << order[0] << " first";
+  }
 }
 
 TEST(PgMergePoints, SensorOptionsAreUsageErrors) {

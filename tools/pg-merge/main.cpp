@@ -177,7 +177,6 @@ void check_input(cli::Frame& frame, MergeInput& in, const InputOptions& o) {
       break;
     }
     case InputKind::rgbd:
-      if (!in.color.empty()) frame.input(in.color);
       if (const std::optional<cv::Size> size = peek_image_size(in.path))
         require_rgbd_depth_size(in.path, *size, in.camera);
       in.mask = checked_mask(o.masks_dir, in.camera.id, in.path, in.camera);
@@ -190,11 +189,16 @@ void check_input(cli::Frame& frame, MergeInput& in, const InputOptions& o) {
                              "frame), unless its points carry sensor_x, sensor_y, sensor_z"));
       break;
   }
+  // Every file read is an input: in the report and provenance, and never overwritten.
+  for (const fs::path& file : {in.color, in.mask})
+    if (!file.empty()) frame.input(file);
 }
 
 // The inputs of this job: those in --range-start/--range-size (a farm split), each checked. The
 // others are not read, but no output may overwrite them.
 std::vector<MergeInput> list_inputs(cli::Frame& frame, const InputOptions& o) {
+  for (const std::string& folder : {o.masks_dir, o.images_dir})
+    if (!folder.empty()) frame.input_dir(folder);  // a mistyped folder fails rather than reads nothing
   std::vector<MergeInput> inputs = all_inputs(frame, o);
   for (const MergeInput& in : inputs) {
     frame.keep(in.path);
@@ -290,9 +294,9 @@ void add_input_options(CLI::App& c, InputOptions& o) {
       ->delimiter(',')
       ->expected(3);
   c.add_option("--range-start", o.range_start, "first input of this job (farm split)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
   c.add_option("--range-size", o.range_size, "inputs in this job (0 = to the end)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
   WeightOptions& w = o.settings.weights;
   c.add_option("--centre-falloff", w.centre_falloff, "weight 1 - f (r/r_corner)^2 towards the image corners")
       ->check(CLI::Range(0.0, 1.0))
@@ -304,15 +308,15 @@ void add_input_options(CLI::App& c, InputOptions& o) {
   c.add_flag("!--no-confidence", w.use_confidence, "ignore the depth maps' confidence channel");
   c.add_flag("!--no-quality", w.use_quality, "ignore the cameras' tracking quality");
   c.add_option("--max-depth", w.max_depth, "drop samples farther than this (0 = no limit)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
 }
 
 void add_volume_options(CLI::App& c, VolumeOptions& v) {
   c.add_option("--voxel-size", v.voxel_size, "voxel edge in scene units")
       ->required()
-      ->check(CLI::PositiveNumber);
+      ->check(pg::cli::positive());
   c.add_option("--truncation", v.truncation, "half-width of the distance band (default 4 voxels)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
   c.add_option("--max-memory", v.max_memory,
                "fail with exit code 5 before the grids exceed this (e.g. 8G, 512M)");
 }
@@ -323,7 +327,7 @@ void add_output_options(CLI::App& c, OutputOptions& o, bool vdb_required) {
   if (vdb_required) vdb->required();
   if (!vdb_required) out->required();
   c.add_option("--min-weight", o.extract.min_weight, "drop vertices with less accumulated weight")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
   c.add_option("--min-piece", o.extract.min_component_fraction,
                "remove pieces smaller than this fraction of the largest piece's faces")
       ->check(CLI::Range(0.0, 1.0));
@@ -386,7 +390,7 @@ int main(int argc, char** argv) {
                      "cameras.json: normals are turned to face the cameras that see them");
   points->add_option("--voxel-size", point_options.voxel_size, "Poisson grid spacing in scene units")
       ->required()
-      ->check(CLI::PositiveNumber);
+      ->check(pg::cli::positive());
   points->add_option("--neighbours", point_options.neighbours, "k nearest neighbours for normals")
       ->capture_default_str();
   points
@@ -426,6 +430,10 @@ int main(int argc, char** argv) {
       for (const auto& p : partials) frame.input(p);
       if (!combine_out.out.empty()) frame.output(combine_out.out);
       if (!combine_out.vdb.empty()) frame.output(combine_out.vdb);
+      // Colour when any partial has it, whatever their order (a chunk of scans without colour
+      // may come first).
+      const bool color = std::any_of(partials.begin(), partials.end(),
+                                     [](const std::string& p) { return TsdfVolume::vdb_has_color(p); });
       std::optional<TsdfVolume> total;
       for (const auto& p : partials) {
         TsdfVolume part = TsdfVolume::read_vdb(p);
@@ -433,7 +441,7 @@ int main(int argc, char** argv) {
           total.emplace(TsdfVolume({.voxel_size = part.voxel_size(),
                                     .truncation = part.truncation(),
                                     .max_memory = parse_bytes(combine_memory),
-                                    .color = part.has_color()}));
+                                    .color = color}));
         }
         try {
           total->merge_partial(part);
@@ -456,6 +464,7 @@ int main(int argc, char** argv) {
           surface_from_points(cloud, cameras ? &*cameras : nullptr, base ? &*base : nullptr, point_options);
       RunReport::global().set_metric("vertices", mesh.vertex_count());
       RunReport::global().set_metric("faces", mesh.face_count());
+      if (mesh.face_count() == 0) throw FailedError(str("no surface from the points of ", points_path));
       mesh.provenance = Provenance::current();
       write_mesh(points_out, mesh);
     }

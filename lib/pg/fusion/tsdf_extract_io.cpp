@@ -330,6 +330,18 @@ TsdfVolume TsdfVolume::read_vdb(const std::filesystem::path& path, Provenance* p
   } catch (const nlohmann::json::exception& e) {
     throw InputError(path, str("pg/provenance is not valid JSON: ", e.what()));
   }
+  // write_vdb writes voxels in leaves only, the surface's where the weight's are (and the colour's
+  // where its weight's are); merging and extraction rely on it.
+  const auto covers = [&](const auto& values, const auto& weights, const char* name) {
+    if (weights->tree().activeTileCount() > 0)
+      throw InputError(path, str("grid \"", weights->getName(), "\" has active tiles"));
+    for (auto leaf = weights->tree().cbeginLeaf(); leaf; ++leaf)
+      if (!values->tree().probeConstLeaf(leaf->origin()))
+        throw InputError(path,
+                         str("grid \"", name, "\" lacks voxels that grid \"", weights->getName(), "\" has"));
+  };
+  covers(grids->surface, grids->weight, "surface");
+  if (grids->color) covers(grids->color, grids->color_weight, "Cd");
   const double voxel = grids->options.voxel_size;
   std::vector<openvdb::GridBase::ConstPtr> all{grids->surface, grids->weight};
   if (grids->color) all.insert(all.end(), {grids->color, grids->color_weight});
@@ -342,6 +354,19 @@ TsdfVolume TsdfVolume::read_vdb(const std::filesystem::path& path, Provenance* p
                        str("grid \"", grid->getName(), "\" does not use the volume's voxel size ", voxel));
   }
   return TsdfVolume(std::move(grids));
+}
+
+bool TsdfVolume::vdb_has_color(const std::filesystem::path& path) {
+  initialize_openvdb();
+  try {
+    openvdb::io::File file(path.string());
+    file.open(false);
+    const bool color = has_grid(file, "Cd") && has_grid(file, "Cd_weight");
+    file.close();
+    return color;
+  } catch (const openvdb::Exception& e) {
+    throw InputError(path, str("cannot read the VDB file: ", e.what()));
+  }
 }
 
 std::optional<float> TsdfVolume::distance_at(const Eigen::Vector3d& world) const {

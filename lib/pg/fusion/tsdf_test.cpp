@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <openvdb/openvdb.h>
+
 #include "pg/core/error.h"
 #include "pg/eval/mesh_eval.h"
 #include "pg/fusion/depth_agreement.h"
@@ -170,6 +172,36 @@ TEST(Tsdf, PartialVolumesCombineToTheSingleRun) {
   EXPECT_DOUBLE_EQ(read.voxel_size(), voxel);
   EXPECT_DOUBLE_EQ(read.truncation(), first.truncation());
   EXPECT_EQ(provenance.tool, Provenance::current().tool);
+
+  // A file whose surface grid lacks voxels its weight grid has (write_vdb never writes one) is
+  // refused with the file's name rather than merged through a missing leaf.
+  {
+    openvdb::initialize();
+    openvdb::io::File file((dir / "combined.vdb").string());
+    file.open(false);
+    openvdb::GridPtrVec grids;
+    for (auto name = file.beginName(); name != file.endName(); ++name) {
+      openvdb::GridBase::Ptr grid = file.readGrid(*name);
+      if (*name == "surface") {
+        openvdb::FloatGrid::Ptr empty = openvdb::FloatGrid::create();
+        empty->setName("surface");
+        empty->setTransform(grid->transform().copy());
+        grid = empty;
+      }
+      grids.push_back(grid);
+    }
+    const openvdb::MetaMap::Ptr meta = file.getMetadata();
+    file.close();
+    openvdb::io::File holes((dir / "holes.vdb").string());
+    holes.write(grids, *meta);
+    holes.close();
+  }
+  try {
+    TsdfVolume::read_vdb(dir / "holes.vdb");
+    ADD_FAILURE() << "read a surface grid with missing voxels";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("lacks voxels"), std::string::npos) << e.what();
+  }
 
   TsdfVolume other({.voxel_size = voxel * 2});
   EXPECT_THROW(other.merge_partial(first), UsageError);

@@ -66,6 +66,9 @@ class TsdfVolume {
   void write_vdb(const std::filesystem::path& path, const Provenance& provenance) const;
   // Throws InputError(path) for anything not written by write_vdb.
   static TsdfVolume read_vdb(const std::filesystem::path& path, Provenance* provenance = nullptr);
+  // Whether a volume file holds colour grids, from its grid names (no grid is read); InputError for a
+  // file OpenVDB cannot open.
+  static bool vdb_has_color(const std::filesystem::path& path);
 
   double voxel_size() const;
   double truncation() const;
