@@ -108,8 +108,30 @@ TEST(PgRemesh, SameOutputForAnyThreadCount) {
   EXPECT_EQ(one.faces, two.faces);
 }
 
+// The recipe remeshes what refinement moved (--deformed-from); when it moved nothing, the mesh
+// passes through unchanged rather than failing the shot.
+TEST(PgRemesh, NothingDeformedPassesTheMeshThrough) {
+  Scene s;
+  const auto r = run_tool("pg-remesh", {"--in", s.path("after.ply"), "--deformed-from", s.path("after.ply"),
+                                        "--out", s.path("same.ply")});
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const pg::Mesh same = pg::read_mesh(s.dir / "same.ply");
+  EXPECT_EQ(same.positions, s.after.positions);
+  EXPECT_EQ(same.faces, s.after.faces);
+}
+
 TEST(PgRemesh, ClearErrorsForBadInput) {
   Scene s;
+  pg::testing::write_text(s.dir / "nan.ply",
+                          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                          "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                          "end_header\n0 0 0\n1 0 0\n0 nan 0\n3 0 1 2\n");
+  auto nan =
+      run_tool("pg-remesh", {"--in", s.path("nan.ply"), "--out", s.path("o.ply"), "--target-length", "0.2"});
+  EXPECT_EQ(nan.exit_code, 3);
+  EXPECT_NE(nan.stderr_text.find("nan.ply: vertex 2 has a non-finite y"), std::string::npos)
+      << nan.stderr_text;
+
   pg::write_mesh(s.dir / "other.ply", pg::test::flat_plane(10));
   auto r = run_tool("pg-remesh", {"--in", s.path("other.ply"), "--out", s.path("o.ply"), "--mask",
                                   s.path("working_set.pgmask.json")});

@@ -62,7 +62,7 @@ int main(int argc, char** argv) {
       ->required();
   app.add_option("--target-length", o.target_length,
                  "target edge length L (default: mean edge length of the region)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
   app.add_option("--iterations", o.iterations, "split / collapse / flip / relax rounds")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));
@@ -72,11 +72,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0f, 180.0f));
   app.add_flag("--adaptive", o.adaptive, "shorter edges where curvature is high");
   app.add_option("--approx-error", o.approximation_error, "adaptive: chord error to aim for (default 0.05 L)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
   app.add_option("--min-length", o.min_length, "adaptive: shortest target (default 0.25 L)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
   app.add_option("--max-length", o.max_length, "adaptive: longest target (default 2 L)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
   app.add_option("--mask", f.mask,
                  "remesh only where this vertex mask is above zero (e.g. working_set.pgmask.json)");
   app.add_option("--region-property", f.region_property,
@@ -85,7 +85,7 @@ int main(int argc, char** argv) {
                  "remesh only the vertices that moved against this mesh (same topology)");
   app.add_option("--tolerance", f.tolerance, "--deformed-from: a vertex moved when it is farther than this")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(pg::cli::non_negative());
   app.add_option("--grow", f.grow, "grow the region by this many rings of neighbours")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));

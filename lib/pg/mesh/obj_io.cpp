@@ -74,6 +74,7 @@ class ObjReader {
     for (std::size_t i = 1; i < words.size(); ++i) {
       const auto value = parse_float(words[i]);
       if (!value) fail(str("\"", words[i], "\" is not a number"));
+      if (!std::isfinite(*value)) fail(str("\"", words[i], "\" is not a finite number"));
       out.push_back(*value);
     }
     return out;

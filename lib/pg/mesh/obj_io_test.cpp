@@ -131,6 +131,8 @@ TEST(Obj, RejectsMalformedLinesNamingFileAndLine) {
   expect_rejected("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", "\"0\" is not a valid vertex index");
   expect_rejected("v 0 0 0\nv 1 0 0\nf 1 2\n", "a face has 2 vertices");
   expect_rejected("v 0 zero 0\n", "line 1: \"zero\" is not a number");
+  expect_rejected("v 0 0 0\nv 0 nan 0\n", "line 2: \"nan\" is not a finite number");
+  expect_rejected("v 0 0 0\nvn 1e39 0 0\n", "\"1e39\" is not");
   expect_rejected("v 0 0\n", "expects 3 to 6 numbers");
   expect_rejected("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n", "texture coordinate index 1 out of range");
   expect_rejected("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/ 2/ 3//\n", "empty normal index");

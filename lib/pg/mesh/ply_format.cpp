@@ -533,6 +533,17 @@ Contents read(const fs::path& path, bool read_faces) {
     BinaryCursor cursor(body, header.encoding == PlyEncoding::binary_big_endian);
     read_body(cursor, header, path, read_faces, out);
   }
+  // Positions and normals are numbers every consumer computes with (conventions.md: readers reject
+  // non-finite numbers); other properties may use NaN for "none".
+  for (const auto& column : out.vertex_columns) {
+    if (column.name != "x" && column.name != "y" && column.name != "z" && column.name != "nx" &&
+        column.name != "ny" && column.name != "nz")
+      continue;
+    for (std::size_t i = 0; i < column.values.size(); ++i)
+      if (!std::isfinite(static_cast<float>(column.values[i])))
+        throw InputError(path,
+                         str("vertex ", i, " has a non-finite ", column.name, " (", column.values[i], ")"));
+  }
   return out;
 }
 

@@ -295,6 +295,17 @@ TEST(PlyRead, RejectsTruncatedAndMalformedData) {
   expect_rejected(
       "ply\nformat ascii 1.0\nelement vertex 1\nproperty float y\nproperty float z\nend_header\n1 2\n",
       "lacks x, y or z");
+  // Non-finite positions and normals (conventions.md); a double beyond float's range is one too.
+  expect_rejected("ply\nformat ascii 1.0\nelement vertex 2\n" + xyz_header + "end_header\n0 0 0\n1 nan 3\n",
+                  "vertex 1 has a non-finite y");
+  PlyBytes huge(
+      "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty double x\n"
+      "property double y\nproperty double z\nend_header\n");
+  huge.put(1.0).put(2.0).put(1e300);
+  expect_rejected(huge.bytes(), "vertex 0 has a non-finite z");
+  expect_rejected("ply\nformat ascii 1.0\nelement vertex 1\n" + xyz_header +
+                      "property float nx\nproperty float ny\nproperty float nz\nend_header\n0 0 0 inf 0 0\n",
+                  "non-finite nx");
 }
 
 TEST(PlyRead, RejectsBadFaces) {

@@ -691,7 +691,12 @@ RemeshResult remesh(const Mesh& original_input, const RemeshOptions& options) {
   // Target length: given, or the region's mean edge length (edges touching it when none lies inside).
   const float diagonal = input.mesh.bounds().diagonal().norm();
   float length = options.target_length;
-  if (length == 0) {
+  if (length == 0 && result.stats.region_vertices == 0) {
+    // Nothing to remesh (say, a refinement that moved no vertex): the mesh passes through, and the
+    // whole mesh's mean edge length fills the report.
+    log::info("no vertex lies in the region to remesh: the mesh passes through unchanged");
+    length = mean_edge_length(input.mesh, std::vector<bool>(n, true));
+  } else if (length == 0) {
     length = mean_edge_length(input.mesh, region);
     if (length == 0) {
       std::vector<bool> touching = region;
