@@ -5,6 +5,8 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 
+#include "pg/camera/cameras_io.h"
+#include "pg/core/hash.h"
 #include "pg/eval/mesh_eval.h"
 #include "pg/mesh/mesh_io.h"
 #include "pg/mesh/vertex_mask.h"
@@ -102,6 +104,41 @@ TEST(PgRefine, RefinesWritesCachesReportAndErrorImages) {
               first.at("error_before")[k].at("ncc_error").get<double>());
 }
 
+// A mesh that came with normals leaves with the normals of its new shape where it moved, and with
+// its own (say, authored) normals where nothing around a vertex moved.
+TEST(PgRefine, RefinedMeshesCarryTheNormalsOfTheirNewShape) {
+  TempDir dir;
+  const fs::path s = scene_folder();
+  pg::Mesh initial = pg::read_mesh(s / "initial.ply");
+  initial.compute_vertex_normals();
+  initial.normals[0] = initial.normals[0].cross(Eigen::Vector3f::UnitX()).normalized();  // "authored"
+  pg::write_mesh(dir / "with-normals.ply", initial);
+  std::vector<std::string> args = run_args(dir / "refined.ply");
+  args[1] = (dir / "with-normals.ply").string();
+  const auto r = run_tool("pg-refine", args);
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const pg::Mesh refined = pg::read_mesh(dir / "refined.ply");
+  pg::Mesh fresh = refined;
+  fresh.compute_vertex_normals();
+  std::vector<std::uint8_t> around_moved(refined.vertex_count(), 0);
+  for (const auto& f : refined.faces)
+    for (std::uint32_t v : f)
+      if (refined.positions[v] != initial.positions[v])
+        around_moved[f[0]] = around_moved[f[1]] = around_moved[f[2]] = 1;
+  std::size_t moved = 0, kept = 0;
+  for (std::size_t v = 0; v < refined.vertex_count(); ++v) {
+    if (around_moved[v]) {
+      ++moved;
+      EXPECT_GT(refined.normals[v].dot(fresh.normals[v]), 0.99999f) << v;
+    } else {
+      ++kept;
+      EXPECT_EQ(refined.normals[v], initial.normals[v]) << v;
+    }
+  }
+  EXPECT_GT(moved, 100u);
+  EXPECT_GT(kept, 100u);
+}
+
 TEST(PgRefine, BrushPaintsErasesAndRebases) {
   TempDir dir;
   const fs::path s = scene_folder();
@@ -160,11 +197,18 @@ TEST(PgRefine, BrushPaintsErasesAndRebases) {
   }
   EXPECT_GT(touched, 50u);
 
-  // Rebase: the stroked mesh becomes the new pre cache; erasing towards it is then a no-op.
-  ASSERT_EQ(run_tool("pg-refine", {"rebase", "--mesh", (dir / "stroked.ply").string(), "--out",
-                                   (dir / "pre2.ply").string(), "--post", (dir / "post.ply").string()})
-                .exit_code,
-            0);
+  // Rebase: the stroked mesh becomes the new pre cache; erasing towards it is then a no-op. The
+  // common flags may come before the subcommand; the post cache read may not be overwritten.
+  const std::string post_before = pg::sha256_file(dir / "post.ply");
+  const auto overwrite =
+      run_tool("pg-refine", {"rebase", "--mesh", (dir / "stroked.ply").string(), "--out",
+                             (dir / "post.ply").string(), "--post", (dir / "post.ply").string()});
+  EXPECT_EQ(overwrite.exit_code, 6) << overwrite.stderr_text;
+  EXPECT_EQ(pg::sha256_file(dir / "post.ply"), post_before);
+  const auto rebased =
+      run_tool("pg-refine", {"--progress", "off", "rebase", "--mesh", (dir / "stroked.ply").string(), "--out",
+                             (dir / "pre2.ply").string(), "--post", (dir / "post.ply").string()});
+  ASSERT_EQ(rebased.exit_code, 0) << rebased.stderr_text;
   const auto r =
       run_tool("pg-refine", {"paint", "--mode", "erase", "--mesh", (dir / "stroked.ply").string(), "--pre",
                              (dir / "pre2.ply").string(), "--post", (dir / "post.ply").string(), "--weights",
@@ -184,6 +228,19 @@ TEST(PgRefine, RejectsBadInputWithClearErrors) {
                      "--out", (dir / "o.ply").string(), "--views", "view_000,view_099"});
   EXPECT_EQ(r.exit_code, 3);
   EXPECT_NE(r.stderr_text.find("no camera 'view_099'"), std::string::npos) << r.stderr_text;
+
+  // A view whose camera has no image (cameras.md allows "image": ""), named by --views; without
+  // --views such cameras are left out of the views.
+  pg::CameraSet imageless = pg::read_cameras(s / "cameras.json");
+  imageless.cameras[1].image.clear();
+  for (auto& c : imageless.cameras)
+    if (!c.image.empty()) c.image = (s / c.image).string();
+  pg::write_cameras(dir / "imageless.json", imageless);
+  r = run_tool("pg-refine", {"--mesh", (s / "initial.ply").string(), "--cameras",
+                             (dir / "imageless.json").string(), "--out", (dir / "o.ply").string(), "--views",
+                             "view_000,view_001", "--pairs", "view_000:view_001"});
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.stderr_text.find("camera 'view_001' names no image"), std::string::npos) << r.stderr_text;
 
   // The mesh far away from every camera.
   pg::Mesh far = initial;

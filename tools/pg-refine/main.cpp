@@ -2,6 +2,7 @@
 // the details brush). Subcommands: run (the default: refinement iterations), paint, rebase.
 #include <algorithm>
 #include <cstring>
+#include <iterator>
 #include <map>
 #include <set>
 
@@ -59,6 +60,7 @@ const pg::Camera& find_camera(const pg::CameraSet& set, const std::string& id,
 }
 
 fs::path image_path(const pg::Camera& camera, const std::string& cameras_file) {
+  if (camera.image.empty()) throw pg::InputError(cameras_file, "camera '" + camera.id + "' names no image");
   const fs::path image(camera.image);
   return image.is_absolute() ? image : fs::path(cameras_file).parent_path() / image;
 }
@@ -94,10 +96,12 @@ void run_refinement(pg::cli::Frame& frame, RunArgs& args) {
   const pg::CameraSet set = pg::read_cameras(args.cameras);
   pg::RefineMasks masks{read_mask(frame, args.working_set, mesh), read_mask(frame, args.pinned, mesh)};
 
-  // The views: those named, or every camera; each must see the mesh.
+  // The views: those named, or every camera with an image (cameras.md allows none); each must see
+  // the mesh.
   std::vector<pg::Camera> cameras;
   if (args.views.empty())
-    cameras = set.cameras;
+    std::copy_if(set.cameras.begin(), set.cameras.end(), std::back_inserter(cameras),
+                 [](const pg::Camera& c) { return !c.image.empty(); });
   else
     for (const auto& id : args.views) cameras.push_back(find_camera(set, id, args.cameras));
   std::map<std::string, int> index;
@@ -240,6 +244,7 @@ void run_paint(pg::cli::Frame& frame, const PaintArgs& args) {
     }
     pg::RunReport::global().set_metric("strokes", strokes.strokes.size());
   }
+  current.update_moved_normals(pg::read_mesh(args.mesh).positions);
   current.provenance = pg::Provenance::current();
   pg::write_mesh(args.out, current);
 }
@@ -358,8 +363,10 @@ int main(int argc, char** argv) {
   // `run` is the default subcommand: pg-refine --mesh ... means pg-refine run --mesh ...
   std::vector<char*> arguments(argv, argv + argc);
   static char run_name[] = "run";
-  const bool names_subcommand = argc > 1 && (!std::strcmp(argv[1], "run") || !std::strcmp(argv[1], "paint") ||
-                                             !std::strcmp(argv[1], "rebase"));
+  // A subcommand may follow the common flags (`pg-refine --threads 2 rebase ...`).
+  const bool names_subcommand = std::any_of(argv + 1, argv + argc, [](const char* a) {
+    return !std::strcmp(a, "run") || !std::strcmp(a, "paint") || !std::strcmp(a, "rebase");
+  });
   const bool asks_top_level = argc > 1 && (!std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") ||
                                            !std::strcmp(argv[1], "--version"));
   if (argc > 1 && !names_subcommand && !asks_top_level) arguments.insert(arguments.begin() + 1, run_name);

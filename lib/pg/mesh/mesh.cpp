@@ -42,6 +42,18 @@ void Mesh::compute_vertex_normals() {
   }
 }
 
+void Mesh::update_moved_normals(const std::vector<Eigen::Vector3f>& before) {
+  if (normals.empty()) return;
+  std::vector<std::uint8_t> affected(positions.size(), 0);
+  for (const auto& f : faces)
+    if (positions[f[0]] != before[f[0]] || positions[f[1]] != before[f[1]] || positions[f[2]] != before[f[2]])
+      for (std::uint32_t v : f) affected[v] = 1;
+  const std::vector<Eigen::Vector3f> kept = normals;
+  compute_vertex_normals();
+  for (std::size_t v = 0; v < positions.size(); ++v)
+    if (!affected[v]) normals[v] = kept[v];
+}
+
 Eigen::AlignedBox3f Mesh::bounds() const {
   Eigen::AlignedBox3f box;  // default constructed empty
   for (const auto& p : positions) box.extend(p);

@@ -32,6 +32,10 @@ struct Mesh {
   void check_consistent() const;
   // Area-weighted vertex normals from the faces.
   void compute_vertex_normals();
+  // After vertices moved from `before` (the positions they had; same count): the area-weighted
+  // normal of every vertex on a face that changed shape, when the mesh has normals. Other vertices
+  // keep theirs (authored normals where nothing moved stay as they were).
+  void update_moved_normals(const std::vector<Eigen::Vector3f>& before);
   // Empty box when there are no vertices.
   Eigen::AlignedBox3f bounds() const;
 };

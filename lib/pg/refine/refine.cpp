@@ -275,6 +275,7 @@ RefineResult refine_mesh(const Mesh& mesh, const std::vector<RefineView>& views,
   std::vector<float>& magnitude = current.vertex_properties["displacement"];
   magnitude.resize(n);
   for (std::size_t v = 0; v < n; ++v) magnitude[v] = total[v].norm();
+  current.update_moved_normals(mesh.positions);
   return result;
 }
 
