@@ -122,6 +122,12 @@ TEST(PgDepth, BadInputsGiveClearErrors) {
   EXPECT_NE(r.stderr_text.find("nope"), std::string::npos);
   r = run_tool("pg-depth", {"--cameras", cameras, "--out-dir", out, "--range", "7,2"});
   EXPECT_EQ(r.exit_code, 2);
+  // A pair given twice would write one depth map over the other: refused before either is computed.
+  r = run_tool("pg-depth", {"--cameras", cameras, "--out-dir", out, "--pair", "view_0:view_1", "--pair",
+                            "view_0:view_1"});
+  EXPECT_EQ(r.exit_code, 6) << r.stderr_text;
+  EXPECT_NE(r.stderr_text.find("named for two outputs"), std::string::npos) << r.stderr_text;
+  EXPECT_FALSE(fs::exists(shot.dir / "o" / "view_0-view_1.exr"));
   // A mask, then an image, whose size differs from its camera's: found from the headers before any
   // pair is computed, so the first pair (view_0:view_1) leaves no depth map either.
   fs::create_directories(shot.dir / "masks");

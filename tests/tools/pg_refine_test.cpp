@@ -229,18 +229,25 @@ TEST(PgRefine, RejectsBadInputWithClearErrors) {
   EXPECT_EQ(r.exit_code, 3);
   EXPECT_NE(r.stderr_text.find("no camera 'view_099'"), std::string::npos) << r.stderr_text;
 
-  // A view whose camera has no image (cameras.md allows "image": ""), named by --views; without
-  // --views such cameras are left out of the views.
+  // A camera with no image (cameras.md allows "image": ""): left out of the default views, and named
+  // by --pairs it is an error that says so.
   pg::CameraSet imageless = pg::read_cameras(s / "cameras.json");
   imageless.cameras[1].image.clear();
   for (auto& c : imageless.cameras)
     if (!c.image.empty()) c.image = (s / c.image).string();
   pg::write_cameras(dir / "imageless.json", imageless);
-  r = run_tool("pg-refine", {"--mesh", (s / "initial.ply").string(), "--cameras",
-                             (dir / "imageless.json").string(), "--out", (dir / "o.ply").string(), "--views",
-                             "view_000,view_001", "--pairs", "view_000:view_001"});
+  r = run_tool("pg-refine",
+               {"--mesh", (s / "initial.ply").string(), "--cameras", (dir / "imageless.json").string(),
+                "--out", (dir / "o.ply").string(), "--pairs", "view_000:view_001"});
   EXPECT_EQ(r.exit_code, 3);
   EXPECT_NE(r.stderr_text.find("camera 'view_001' names no image"), std::string::npos) << r.stderr_text;
+
+  // An option's value that reads like a subcommand name is still a value.
+  r = run_tool("pg-refine",
+               {"--mesh", (s / "initial.ply").string(), "--cameras", (s / "cameras.json").string(), "--out",
+                (dir / "o.ply").string(), "--pinned", "run"});
+  EXPECT_EQ(r.exit_code, 3) << r.stderr_text;
+  EXPECT_NE(r.stderr_text.find("run: no such file"), std::string::npos) << r.stderr_text;
 
   // The mesh far away from every camera.
   pg::Mesh far = initial;

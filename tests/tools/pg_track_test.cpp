@@ -363,6 +363,7 @@ TEST_F(PgTrack, ImagesOfDifferentSizesUnderOneCameraNameTheFrames) {
 // sequence (which takes hours on a long one).
 TEST_F(PgTrack, BadOptionsFailBeforeTracking) {
   TempDir out;
+  fs::copy_file(scene() / "cameras.json", out / "cameras.json");  // an input where an output goes
   struct Case {
     std::vector<std::string> args;
     int exit_code;
@@ -377,6 +378,8 @@ TEST_F(PgTrack, BadOptionsFailBeforeTracking) {
       {{"--max-error", "0"}, 2, "--max-error: must be greater than 0"},
       {{"--max-features", "0"}, 2, "--max-features"},
       {{"--masks", (out / "no-such-folder").string()}, 3, "not a folder"},
+      {{"--report", (out / "cameras.json").string()}, 6, "named for two outputs"},
+      {{"--cameras", (out / "cameras.json").string()}, 6, "refusing to overwrite an input"},
   };
   for (const Case& c : cases) {
     std::vector<std::string> args = {"--images", (scene() / "images").string(), "--out", out.path().string()};

@@ -233,6 +233,16 @@ int main(int argc, char** argv) {
           frame.input(file), declared.push_back(file);
     frame.output_dir(o.out_dir);
     const fs::path out_dir = o.out_dir;
+    // Every pair's outputs, declared before the first is computed: a pair given twice, or two pairs
+    // whose ids join to one name (a-b:c, a:b-c), fail at once rather than after the first pair.
+    const auto output = [&](const PairIds& ids, const char* suffix) {
+      return out_dir / (ids.reference + "-" + ids.other + suffix);
+    };
+    for (const PairIds& ids : pairs)
+      for (const auto& [suffix, wanted] :
+           {std::pair{".exr", true}, std::pair{".ply", o.ply}, std::pair{"-mesh.ply", o.mesh},
+            std::pair{"-depth.png", o.preview}, std::pair{"-flow.png", o.flow_png}})
+        if (wanted) frame.output(output(ids, suffix));
     std::size_t valid = 0, total = 0, filled = 0;
     double flow_seconds = 0, triangulation_seconds = 0;
     for (const PairIds& ids : pairs) {
@@ -254,33 +264,28 @@ int main(int argc, char** argv) {
       pg::DepthPairResult result = pg::compute_depth_pair(input, options);
       result.depth.map.provenance = provenance;
       const std::string stem = ids.reference + "-" + ids.other;
-      const fs::path exr = out_dir / (stem + ".exr");
-      frame.output(exr);
+      const fs::path exr = output(ids, ".exr");
       pg::write_depth_exr(exr, result.depth.map);
       const cv::Mat colours =
           input.reference_image.depth() == CV_8U && options.scale == 1 ? input.reference_image : cv::Mat();
       if (o.ply) {
-        const fs::path path = out_dir / (stem + ".ply");
-        frame.output(path);
+        const fs::path path = output(ids, ".ply");
         pg::PointCloud cloud = pg::depth_point_cloud(result.depth.map, colours);
         cloud.provenance = provenance;
         pg::write_point_cloud_ply(path, cloud);
       }
       if (o.mesh) {
-        const fs::path path = out_dir / (stem + "-mesh.ply");
-        frame.output(path);
+        const fs::path path = output(ids, "-mesh.ply");
         pg::Mesh mesh = pg::depth_grid_mesh(result.depth.map, colours);
         mesh.provenance = provenance;
         pg::write_mesh(path, mesh);
       }
       if (o.preview) {
-        const fs::path path = out_dir / (stem + "-depth.png");
-        frame.output(path);
+        const fs::path path = output(ids, "-depth.png");
         pg::write_depth_preview_png(path, result.depth.map);
       }
       if (o.flow_png) {
-        const fs::path path = out_dir / (stem + "-flow.png");
-        frame.output(path);
+        const fs::path path = output(ids, "-flow.png");
         pg::write_image(path, pg::flow_to_color(result.flow));
       }
       const auto& r = result.depth.rejections;

@@ -112,7 +112,8 @@ void run_refinement(pg::cli::Frame& frame, RunArgs& args) {
     if (colon == std::string::npos) throw pg::UsageError("--pairs: '" + text + "' is not A:B");
     const std::string a = text.substr(0, colon), b = text.substr(colon + 1);
     for (const auto& id : {a, b}) {
-      find_camera(set, id, args.cameras);
+      if (find_camera(set, id, args.cameras).image.empty())
+        throw pg::InputError(args.cameras, "camera '" + id + "' names no image");
       if (!index.count(id)) throw pg::UsageError("--pairs: view '" + id + "' is not among --views");
     }
     pairs.push_back({index[a], index[b]});
@@ -363,10 +364,22 @@ int main(int argc, char** argv) {
   // `run` is the default subcommand: pg-refine --mesh ... means pg-refine run --mesh ...
   std::vector<char*> arguments(argv, argv + argc);
   static char run_name[] = "run";
-  // A subcommand may follow the common flags (`pg-refine --threads 2 rebase ...`).
-  const bool names_subcommand = std::any_of(argv + 1, argv + argc, [](const char* a) {
-    return !std::strcmp(a, "run") || !std::strcmp(a, "paint") || !std::strcmp(a, "rebase");
-  });
+  // A subcommand may follow the common flags (`pg-refine --threads 2 rebase ...`): the first
+  // argument that is not a common flag or its value says whether one is named.
+  const auto names_subcommand = [&] {
+    static const std::set<std::string> with_value = {"--log-level", "--threads",  "--seed",  "--max-memory",
+                                                     "--report",    "--progress", "--device"};
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      if (with_value.count(a)) {
+        ++i;
+        continue;
+      }
+      if (a.starts_with("--") && with_value.count(a.substr(0, a.find('=')))) continue;
+      return a == "run" || a == "paint" || a == "rebase";
+    }
+    return false;
+  }();
   const bool asks_top_level = argc > 1 && (!std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") ||
                                            !std::strcmp(argv[1], "--version"));
   if (argc > 1 && !names_subcommand && !asks_top_level) arguments.insert(arguments.begin() + 1, run_name);

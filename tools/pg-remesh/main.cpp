@@ -1,5 +1,6 @@
 // pg-remesh: isotropic remeshing of a mesh or of the region a mask or a deformation selects, features
 // and pinned vertices kept, masks carried to the new topology (formats/remesh-report.md).
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 
@@ -143,6 +144,14 @@ int main(int argc, char** argv) {
       pg::log::info("pinning the vertices of property \"", f.pinned_property, "\" of ", f.in);
     }
     for (const std::string& path : f.carry) mask_names.push_back(attach_mask(mesh, path).name);
+    // One output per mask name (a mask given as --mask and --carry-mask is written once), declared
+    // before the remeshing so that a clash fails at once.
+    std::vector<std::string> unique_names;
+    for (const std::string& name : mask_names)
+      if (std::find(unique_names.begin(), unique_names.end(), name) == unique_names.end())
+        unique_names.push_back(name);
+    mask_names = unique_names;
+    for (const std::string& name : mask_names) frame.output(mask_output_path(f.out, name));
 
     pg::RemeshResult result;
     {
@@ -156,7 +165,6 @@ int main(int argc, char** argv) {
     pg::RemeshReportFiles files{f.in, f.out, region_source, {}};
     for (const std::string& name : mask_names) {
       const fs::path path = mask_output_path(f.out, name);
-      frame.output(path);
       pg::VertexMask mask = pg::mask_from_property(result.mesh, name);
       mask.provenance = pg::Provenance::current();
       pg::write_vertex_mask(path, mask);

@@ -289,6 +289,9 @@ int main(int argc, char** argv) {
     for (const fs::path& p : images) frame.input(p);
     if (!o.cameras.empty()) frame.input(o.cameras);
     frame.output_dir(o.out);
+    const fs::path out(o.out);
+    for (const char* name : {"cameras.json", "points.ply", "tracks.json", "top_view.png"})
+      frame.output(out / name);
     if (!o.masks.empty() && !fs::is_directory(o.masks))
       throw pg::InputError(o.masks, "--masks: not a folder (masks are <image stem>.png in one folder)");
     std::vector<pg::SequenceFrame> frames;
@@ -379,14 +382,11 @@ int main(int argc, char** argv) {
     for (std::size_t t = 0; t < correspondences.tracks.tracks.size(); ++t)
       correspondences.tracks.tracks[t].point = result.track_point[t];
 
-    const fs::path out(o.out);
     pg::CameraSet cameras = pg::registered_cameras(result);
     pg::write_cameras(out / "cameras.json", cameras);
     pg::write_sparse_points(out / "points.ply", result);
     pg::write_tracks(out / "tracks.json", correspondences.tracks);
     pg::write_image(out / "top_view.png", pg::render_top_view(result));
-    for (const char* name : {"cameras.json", "points.ply", "tracks.json", "top_view.png"})
-      pg::RunReport::global().add_output(out / name);
 
     auto& report = pg::RunReport::global();
     report.set_metric("images", frames.size());

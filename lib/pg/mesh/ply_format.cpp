@@ -533,9 +533,11 @@ Contents read(const fs::path& path, bool read_faces) {
     BinaryCursor cursor(body, header.encoding == PlyEncoding::binary_big_endian);
     read_body(cursor, header, path, read_faces, out);
   }
-  // Positions and normals are numbers every consumer computes with (conventions.md: readers reject
-  // non-finite numbers); other properties may use NaN for "none".
-  for (const auto& column : out.vertex_columns) {
+  return out;
+}
+
+void require_finite_positions(const Contents& contents, const fs::path& path) {
+  for (const auto& column : contents.vertex_columns) {
     if (column.name != "x" && column.name != "y" && column.name != "z" && column.name != "nx" &&
         column.name != "ny" && column.name != "nz")
       continue;
@@ -544,7 +546,6 @@ Contents read(const fs::path& path, bool read_faces) {
         throw InputError(path,
                          str("vertex ", i, " has a non-finite ", column.name, " (", column.values[i], ")"));
   }
-  return out;
 }
 
 void read_pg_comments(const Contents& contents, const fs::path& path,

@@ -50,6 +50,11 @@ struct Contents {
 // Throws InputError(path, ...) for anything malformed, truncated or implausibly large.
 Contents read(const std::filesystem::path& path, bool read_faces);
 
+// Meshes and point clouds: positions and normals must be finite (conventions.md: readers reject
+// non-finite numbers); other properties may use NaN for "none". Scans skip such points instead
+// (rgbd-inputs.md). Throws InputError(path, ...) naming the vertex.
+void require_finite_positions(const Contents& contents, const std::filesystem::path& path);
+
 // The pg-format comment must name one of `accepted_formats` with a version <= 1 when present; the
 // pg-provenance comment, when present, is parsed into `provenance`.
 void read_pg_comments(const Contents& contents, const std::filesystem::path& path,

@@ -23,6 +23,7 @@ constexpr std::pair<const char*, const char*> uv_names[] = {
 
 Mesh read_mesh_ply(const fs::path& path) {
   const ply::Contents contents = ply::read(path, true);
+  ply::require_finite_positions(contents, path);
   Mesh mesh;
   ply::read_pg_comments(contents, path, {"pg-mesh", "pg-point-cloud"}, mesh.provenance);
   const std::size_t n = contents.vertex_count;

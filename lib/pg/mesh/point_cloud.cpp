@@ -29,6 +29,7 @@ void PointCloud::check_consistent() const {
 
 PointCloud read_point_cloud_ply(const fs::path& path) {
   const ply::Contents contents = ply::read(path, false);
+  ply::require_finite_positions(contents, path);
   PointCloud cloud;
   ply::read_pg_comments(contents, path, {"pg-mesh", "pg-point-cloud"}, cloud.provenance);
   const std::size_t n = contents.vertex_count;
