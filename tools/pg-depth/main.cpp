@@ -118,8 +118,7 @@ void check_pair_inputs(const Options& o, const pg::CameraSet& set, const std::ve
       throw pg::InputError(o.cameras,
                            pg::str("cameras '", ids.reference, "' (", reference.width, "x", reference.height,
                                    ") and '", ids.other, "' (", other.width, "x", other.height,
-                                   ") differ in size; a pair's views must "
-                                   "have one size"));
+                                   ") differ in size; a pair's views must have one size"));
     for (const pg::Camera* camera : {&reference, &other}) {
       check_header(image_path(o.cameras, *camera), *camera, "image");
       if (const fs::path mask = mask_path(o, *camera); !mask.empty()) check_header(mask, *camera, "mask");

@@ -212,6 +212,7 @@ void run_paint(pg::cli::Frame& frame, const PaintArgs& args) {
   if (args.weights.empty() == args.strokes.empty())
     throw pg::UsageError("paint: give exactly one of --weights or --strokes");
   pg::Mesh current = pg::read_mesh(args.mesh);
+  const std::vector<Eigen::Vector3f> unpainted = current.positions;
   const pg::Mesh pre = pg::read_refine_cache(args.pre, current);
   const pg::Mesh post = pg::read_refine_cache(args.post, current);
   const pg::BrushLimits limits{read_mask(frame, args.working_set, current),
@@ -245,7 +246,7 @@ void run_paint(pg::cli::Frame& frame, const PaintArgs& args) {
     }
     pg::RunReport::global().set_metric("strokes", strokes.strokes.size());
   }
-  current.update_moved_normals(pg::read_mesh(args.mesh).positions);
+  current.update_moved_normals(unpainted);
   current.provenance = pg::Provenance::current();
   pg::write_mesh(args.out, current);
 }
