@@ -71,6 +71,32 @@ TEST(MaxMemory, MergeAtATinyVoxelSizeStopsBeforeAllocatingTheGrids) {
   EXPECT_FALSE(std::filesystem::exists(dir / "merged.ply"));
 }
 
+// Before, a budget given before the subcommand set only the address-space limit, and the first
+// allocation past it ended in std::terminate (exit 134): OpenVDB's Tree::clear allocates while the
+// std::bad_alloc unwinds. Either place, whatever runs out first, the answer is exit code 5.
+TEST(MaxMemory, MergeOutOfMemoryIsExitCodeFiveWhereverTheBudgetIsGiven) {
+  pg::testing::TempDir dir;
+  const auto depth = (pg::reliability::scene("set") / "depth" / "view_000.exr").string();
+  const std::vector<std::string> volume = {
+      "volume",     "--depth", depth, "--voxel-size", "0.0003", "--out", (dir / "merged.ply").string(),
+      "--progress", "off"};
+  for (const char* threads : {"1", "2"})
+    for (const char* budget : {"16M", "200M"}) {
+      std::vector<std::string> before = {"--threads", threads, "--max-memory", budget};
+      before.insert(before.end(), volume.begin(), volume.end());
+      std::vector<std::string> after = volume;
+      after.insert(after.end(), {"--threads", threads, "--max-memory", budget});
+      for (const auto& args : {before, after}) {
+        const auto r = pg::testing::run_tool("pg-merge", args);
+        EXPECT_EQ(r.exit_code, 5) << "--threads " << threads << " --max-memory " << budget << ": "
+                                  << r.stderr_text;
+        const std::string mib = std::string(budget).substr(0, std::string(budget).size() - 1) + " MiB";
+        EXPECT_NE(r.stderr_text.find("--max-memory " + mib), std::string::npos) << r.stderr_text;
+        EXPECT_FALSE(std::filesystem::exists(dir / "merged.ply"));
+      }
+    }
+}
+
 TEST(MaxMemory, MalformedBudgetIsAUsageError) {
   pg::testing::TempDir dir;
   const auto r =

@@ -131,6 +131,11 @@ TEST(PgMerge, BadInputsAreClearErrors) {
   EXPECT_EQ(r.exit_code, 5);
   EXPECT_NE(r.stderr_text.find("--max-memory"), std::string::npos) << r.stderr_text;
   EXPECT_FALSE(fs::exists(dir / "o.ply"));
+  // A band of more than 256 voxels is refused (1e300 marked voxels along each ray without end).
+  r = run_tool("pg-merge", {"volume", "--voxel-size", "0.03", "--truncation", "1e300", "--out",
+                            (dir / "o.ply").string(), "--depth", depth[0]});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.stderr_text.find("must be from one to 256 voxels"), std::string::npos) << r.stderr_text;
 }
 
 // Writes the scene's depth from an orbit as RGB-D frames: 16-bit PNG depth in millimetres

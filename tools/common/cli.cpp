@@ -6,6 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <exception>
 #include <fstream>
 #include <iostream>
 #include <new>
@@ -33,6 +36,33 @@ void on_signal(int) {
   ::_exit(int(ExitCode::interrupted));
 }
 
+// What the terminate handler prints for a std::bad_alloc, composed before the body runs because the
+// handler must not allocate.
+char out_of_memory_line[256] = "pg: error: out of memory\n";
+std::terminate_handler previous_terminate = nullptr;
+
+// A std::bad_alloc thrown from a destructor while an earlier one unwinds (OpenVDB's Tree::clear
+// gathers nodes into vectors to free them) ends in std::terminate instead of run's catch. It is
+// still exit code 5 (a farm retries on a bigger node), and no temporary output is left behind.
+[[noreturn]] void on_terminate() {
+  bool out_of_memory = false;
+  if (const std::exception_ptr e = std::current_exception()) {
+    try {
+      std::rethrow_exception(e);
+    } catch (const std::bad_alloc&) {
+      out_of_memory = true;
+    } catch (...) {
+    }
+  }
+  remove_temporaries_in_flight();
+  if (out_of_memory) {
+    [[maybe_unused]] auto n = ::write(STDERR_FILENO, out_of_memory_line, std::strlen(out_of_memory_line));
+    ::_exit(int(ExitCode::out_of_memory));
+  }
+  if (previous_terminate) previous_terminate();
+  std::abort();
+}
+
 std::string quote_arg(const std::string& a) {
   if (!a.empty() && a.find_first_of(" \t\"'$\\") == std::string::npos) return a;
   std::string q = "'";
@@ -41,6 +71,12 @@ std::string quote_arg(const std::string& a) {
 }
 
 std::uint64_t budget_bytes = 0;
+
+std::string out_of_memory_message() {
+  return budget_bytes
+             ? str("out of memory: an allocation went past --max-memory ", budget_bytes >> 20, " MiB")
+             : std::string("out of memory");
+}
 
 // Builds with AddressSanitizer reserve terabytes of address space, so no address-space limit there.
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
@@ -265,6 +301,9 @@ int Frame::run(int argc, char** argv, const std::function<void()>& body) {
       budget_bytes = max_memory_;
       limit_address_space(max_memory_, threads_);
     }
+    const std::string line = str(info_.name, ": error: ", out_of_memory_message(), "\n");
+    std::snprintf(out_of_memory_line, sizeof out_of_memory_line, "%s", line.c_str());
+    previous_terminate = std::set_terminate(on_terminate);
     Progress::set_enabled(progress_mode_ != "off");
     Progress::set_force_terminal(progress_mode_ == "lines" ? 0 : -1);
     if (!report_path_.empty()) output(report_path_);
@@ -276,7 +315,7 @@ int Frame::run(int argc, char** argv, const std::function<void()>& body) {
     message = e.what();
   } catch (const std::bad_alloc&) {
     code = ExitCode::out_of_memory;
-    message = "out of memory";
+    message = out_of_memory_message();
   } catch (const std::exception& e) {
     // OpenCV reports a failed allocation as cv::Exception (-4: Insufficient memory), not bad_alloc.
     const bool opencv_out_of_memory = std::string(e.what()).find("Insufficient memory") != std::string::npos;

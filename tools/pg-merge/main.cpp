@@ -35,7 +35,6 @@ struct InputOptions {
 
 struct VolumeOptions {
   double voxel_size = 0, truncation = 0;
-  std::string max_memory;
 };
 
 struct OutputOptions {
@@ -55,26 +54,6 @@ std::pair<fs::path, double> split_weight(const std::string& spec) {
   } catch (const std::logic_error&) {
     throw UsageError(str("'", spec, "': the weight after '@' must be a positive number"));
   }
-}
-
-std::uint64_t parse_bytes(const std::string& text) {
-  if (text.empty()) return 0;
-  std::size_t used = 0;
-  double value = 0;
-  try {
-    value = std::stod(text, &used);
-  } catch (const std::logic_error&) {
-    throw UsageError(str("--max-memory '", text, "' is not a size such as 8G, 512M or 1000000"));
-  }
-  const std::string unit = text.substr(used);
-  const double scale = unit.empty()  ? 1
-                       : unit == "K" ? 1 << 10
-                       : unit == "M" ? 1 << 20
-                       : unit == "G" ? 1 << 30
-                                     : -1;
-  if (scale < 0 || !(value > 0))
-    throw UsageError(str("--max-memory '", text, "' is not a size such as 8G, 512M or 1000000"));
-  return std::uint64_t(value * scale);
 }
 
 Eigen::Vector3d vector3(const std::vector<double>& v) {
@@ -218,7 +197,7 @@ std::vector<MergeInput> list_inputs(cli::Frame& frame, const InputOptions& o) {
 TsdfVolume make_volume(const VolumeOptions& v, bool color) {
   return TsdfVolume({.voxel_size = v.voxel_size,
                      .truncation = v.truncation,
-                     .max_memory = parse_bytes(v.max_memory),
+                     .max_memory = cli::memory_budget(),
                      .color = color});
 }
 
@@ -315,10 +294,9 @@ void add_volume_options(CLI::App& c, VolumeOptions& v) {
   c.add_option("--voxel-size", v.voxel_size, "voxel edge in scene units")
       ->required()
       ->check(pg::cli::positive());
-  c.add_option("--truncation", v.truncation, "half-width of the distance band (default 4 voxels)")
+  c.add_option("--truncation", v.truncation,
+               "half-width of the distance band, 1 to 256 voxels (default 4 voxels)")
       ->check(pg::cli::non_negative());
-  c.add_option("--max-memory", v.max_memory,
-               "fail with exit code 5 before the grids exceed this (e.g. 8G, 512M)");
 }
 
 void add_output_options(CLI::App& c, OutputOptions& o, bool vdb_required) {
@@ -371,12 +349,10 @@ int main(int argc, char** argv) {
   integrate->add_option("--vdb", partial_out, "the partial volume")->required();
 
   std::vector<std::string> partials;
-  std::string combine_memory;
   CLI::App* combine = app.add_subcommand("combine", "sum partial volumes into the single-run result");
   combine->add_option("--partials", partials, "partial .vdb files from pg-merge integrate")
       ->required()
       ->expected(1, -1);
-  combine->add_option("--max-memory", combine_memory, "fail with exit code 5 before the grids exceed this");
   add_output_options(*combine, combine_out, false);
   combine->get_option("--out")->required(false);
 
@@ -440,7 +416,7 @@ int main(int argc, char** argv) {
         if (!total) {
           total.emplace(TsdfVolume({.voxel_size = part.voxel_size(),
                                     .truncation = part.truncation(),
-                                    .max_memory = parse_bytes(combine_memory),
+                                    .max_memory = cli::memory_budget(),
                                     .color = color}));
         }
         try {

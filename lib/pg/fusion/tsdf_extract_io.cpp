@@ -306,7 +306,8 @@ TsdfVolume TsdfVolume::read_vdb(const std::filesystem::path& path, Provenance* p
       throw InputError(path, str("unsupported pg/version (this reader supports up to ", vdb_version, ")"));
     const auto voxel = meta->getMetadata<openvdb::DoubleMetadata>("pg/voxel_size");
     const auto truncation = meta->getMetadata<openvdb::DoubleMetadata>("pg/truncation");
-    if (!voxel || !truncation || !(voxel->value() > 0) || !(truncation->value() >= voxel->value()))
+    if (!voxel || !truncation || !(voxel->value() > 0) || !(truncation->value() >= voxel->value()) ||
+        !(truncation->value() <= max_truncation_voxels * voxel->value()))
       throw InputError(path, "missing or invalid pg/voxel_size or pg/truncation");
     if (provenance) {
       const auto text = meta->getMetadata<openvdb::StringMetadata>("pg/provenance");

@@ -275,6 +275,32 @@ TEST(Tsdf, MemoryLimitFailsBeforeAllocating) {
   EXPECT_EQ(volume.leaf_count(), 0u);
 }
 
+// The estimate counts the internal nodes a sparse leaf brings (at a small voxel size, ten times the
+// leaf): a budget just under what the grids then take fails before allocating, for the first frame
+// and for the second on top of the first, and a budget a little over it passes.
+TEST(Tsdf, MemoryEstimateCoversTheInternalNodesOfSparseLeaves) {
+  const auto frames = frames_of(set_scene(), orbit(2, 3.0, 1.8, {0, 0, 0.2}, 96, 72, 85));
+  for (const double voxel : {0.02, 0.001}) {
+    TsdfVolume unlimited({.voxel_size = voxel});
+    unlimited.integrate(frames[0]);
+    const std::uint64_t after_first = unlimited.memory_bytes();
+    unlimited.integrate(frames[1]);
+    const std::uint64_t after_both = unlimited.memory_bytes();
+    for (const std::uint64_t needed : {after_first, after_both}) {
+      TsdfVolume under({.voxel_size = voxel, .max_memory = needed * 95 / 100});
+      EXPECT_THROW(
+          {
+            under.integrate(frames[0]);
+            under.integrate(frames[1]);
+          },
+          Error)
+          << voxel;
+      TsdfVolume over({.voxel_size = voxel, .max_memory = needed * 2});
+      EXPECT_NO_THROW(over.integrate(frames[0])) << voxel;
+    }
+  }
+}
+
 TEST(Tsdf, BadDepthInputsAreClearErrors) {
   DepthMap empty;
   empty.camera = testing::pinhole_camera(8, 6, 10, {0, 0, -1}, {0, 0, 0});
@@ -291,6 +317,9 @@ TEST(Tsdf, BadDepthInputsAreClearErrors) {
         << e.what();
   }
   EXPECT_THROW(TsdfVolume({.voxel_size = 0}), UsageError);
+  EXPECT_THROW(TsdfVolume({.voxel_size = 0.01, .truncation = 0.005}), UsageError);
+  EXPECT_THROW(TsdfVolume({.voxel_size = 0.01, .truncation = 2.57}), UsageError);
+  EXPECT_NO_THROW(TsdfVolume({.voxel_size = 0.01, .truncation = 2.56}));
   pg::testing::TempDir dir;
   pg::testing::write_text(dir / "not.vdb", "garbage");
   EXPECT_THROW(TsdfVolume::read_vdb(dir / "not.vdb"), InputError);

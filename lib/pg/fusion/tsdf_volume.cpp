@@ -3,6 +3,8 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+#include <array>
 #include <mutex>
 
 #include "pg/core/error.h"
@@ -44,11 +46,26 @@ void for_each_crossed_voxel(const Eigen::Vector3d& from, const Eigen::Vector3d& 
   }
 }
 
+// A mask tree whose destruction allocates nothing. OpenVDB's Tree::clear() gathers the nodes into
+// vectors before freeing them, so a tree destroyed while std::bad_alloc unwinds (a run that reached
+// its --max-memory address-space limit while marking) threw from a destructor: std::terminate
+// instead of exit code 5. Deleting from the root down frees without allocating.
+struct FreedMaskTree {
+  MaskTree tree;
+  FreedMaskTree() = default;
+  FreedMaskTree(const FreedMaskTree&) = delete;
+  FreedMaskTree& operator=(const FreedMaskTree&) = delete;
+  ~FreedMaskTree() {
+    tree.clearAllAccessors();
+    tree.root().clear();
+  }
+};
+
 // Marks the leaves that a segment of rays touches, one thread-local tree per worker, then unites them.
 class LeafCollector {
   struct Local {
-    std::unique_ptr<MaskTree> tree = std::make_unique<MaskTree>();
-    openvdb::tree::ValueAccessor<MaskTree> accessor{*tree};
+    std::unique_ptr<FreedMaskTree> mask = std::make_unique<FreedMaskTree>();
+    openvdb::tree::ValueAccessor<MaskTree> accessor{mask->tree};
     void touchLeaf(const Coord& c) { accessor.setValueOn(c); }
   };
 
@@ -85,11 +102,11 @@ class LeafCollector {
   Marker marker() { return Marker(accessors_.local(), inverse_voxel_); }
 
   std::vector<Coord> leaf_origins() {
-    MaskTree all;
-    for (auto& local : accessors_) all.topologyUnion(*local.tree);
+    FreedMaskTree all;
+    for (auto& local : accessors_) all.tree.topologyUnion(local.mask->tree);
     std::vector<Coord> origins;
-    origins.reserve(all.leafCount());
-    for (auto leaf = all.cbeginLeaf(); leaf; ++leaf) origins.push_back(leaf->origin());
+    origins.reserve(all.tree.leafCount());
+    for (auto leaf = all.tree.cbeginLeaf(); leaf; ++leaf) origins.push_back(leaf->origin());
     return origins;
   }
 
@@ -172,9 +189,9 @@ TsdfVolume::TsdfVolume(const TsdfOptions& options) : grids_(std::make_unique<Gri
   Grids& g = *grids_;
   g.options = options;
   g.truncation = options.truncation > 0 ? options.truncation : 4 * options.voxel_size;
-  if (g.truncation < options.voxel_size)
-    throw UsageError(
-        str("the truncation (", g.truncation, ") must be at least one voxel (", options.voxel_size, ")"));
+  if (!(g.truncation >= options.voxel_size && g.truncation <= max_truncation_voxels * options.voxel_size))
+    throw UsageError(str("the truncation (", g.truncation, ") must be from one to ", max_truncation_voxels,
+                         " voxels (", options.voxel_size, ")"));
   const auto transform = openvdb::math::Transform::createLinearTransform(options.voxel_size);
   g.surface = openvdb::FloatGrid::create(float(g.truncation));
   g.surface->setName("surface");
@@ -219,27 +236,65 @@ std::uint64_t TsdfVolume::memory_bytes() const {
   return bytes;
 }
 
-std::uint64_t TsdfVolume::bytes_per_leaf(bool color) {
-  // Voxel values plus the leaf itself, and half as much again for the internal nodes above sparse
-  // leaves (measured on depth-map merges: 3.4 kB per float leaf).
-  const std::uint64_t scalar = leaf_voxels * sizeof(float) + sizeof(openvdb::FloatTree::LeafNodeType);
-  const std::uint64_t vector =
-      leaf_voxels * sizeof(openvdb::Vec3s) + sizeof(openvdb::Vec3STree::LeafNodeType);
-  return (2 * scalar + (color ? vector + scalar : 0)) * 3 / 2;
+namespace {
+
+// Bytes one leaf, one lower (16^3 leaves) and one upper (32^3 lower nodes) internal node of a tree take.
+template <class TreeT>
+std::array<std::uint64_t, 3> node_bytes() {
+  using Upper = typename TreeT::RootNodeType::ChildNodeType;
+  using Lower = typename Upper::ChildNodeType;
+  using Leaf = typename TreeT::LeafNodeType;
+  return {sizeof(Leaf) + Leaf::SIZE * sizeof(typename TreeT::ValueType), sizeof(Lower), sizeof(Upper)};
 }
 
-void TsdfVolume::check_memory(std::size_t new_leaves, const std::string& input) const {
-  const std::uint64_t limit = grids_->options.max_memory;
+// The number of distinct keys, each origin rounded down to a multiple of `dim` voxels, for which
+// `exists` is false.
+template <class Exists>
+std::size_t count_new_parents(const std::vector<Coord>& origins, int dim, Exists&& exists) {
+  std::vector<Coord> keys;
+  keys.reserve(origins.size());
+  for (const Coord& o : origins) keys.push_back(o & ~(dim - 1));
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  return std::size_t(std::count_if(keys.begin(), keys.end(), [&](const Coord& k) { return !exists(k); }));
+}
+
+// Bytes the grids would grow by to hold the leaves at `origins`: the leaves that are not there yet
+// and the internal nodes that would be new above them.
+std::uint64_t growth_bytes(const TsdfVolume::Grids& g, const std::vector<Coord>& origins) {
+  const openvdb::FloatTree& tree = g.surface->tree();
+  using Upper = openvdb::FloatTree::RootNodeType::ChildNodeType;
+  using Lower = Upper::ChildNodeType;
+  std::vector<Coord> new_leaves;
+  for (const Coord& origin : origins)
+    if (!tree.probeConstLeaf(origin)) new_leaves.push_back(origin);
+  // At a small voxel size every leaf may need internal nodes of its own, each ten times its size.
+  const std::uint64_t counts[3] = {
+      new_leaves.size(),
+      count_new_parents(new_leaves, Lower::DIM,
+                        [&](const Coord& k) { return tree.probeConstNode<Lower>(k); }),
+      count_new_parents(new_leaves, Upper::DIM,
+                        [&](const Coord& k) { return tree.probeConstNode<Upper>(k); })};
+  const auto scalar = node_bytes<openvdb::FloatTree>();
+  const auto vector = node_bytes<openvdb::Vec3STree>();
+  std::uint64_t bytes = 0;
+  for (int level = 0; level < 3; ++level)
+    bytes += counts[level] * (2 * scalar[level] + (g.color ? vector[level] + scalar[level] : 0));
+  return bytes;
+}
+
+// Error(out_of_memory) before allocating when the grids would exceed their budget.
+void check_memory(const TsdfVolume& volume, const TsdfVolume::Grids& g, const std::vector<Coord>& origins,
+                  const std::string& input) {
+  const std::uint64_t limit = g.options.max_memory;
   if (limit == 0) return;
-  const std::uint64_t needed = (leaf_count() + new_leaves) * bytes_per_leaf(has_color());
+  const std::uint64_t needed = volume.memory_bytes() + growth_bytes(g, origins);
   if (needed > limit)
     throw Error(ExitCode::out_of_memory,
-                str("merging ", input, " at voxel size ", voxel_size(), " needs about ", needed / (1 << 20),
-                    " MiB for the grids, more than --max-memory ", limit / (1 << 20),
+                str("merging ", input, " at voxel size ", g.options.voxel_size, " needs about ",
+                    needed / (1 << 20), " MiB for the grids, more than --max-memory ", limit / (1 << 20),
                     " MiB (use a larger voxel size or more memory)"));
 }
-
-namespace {
 
 // Creates the leaves (in every grid) that are not there yet; returns how many were new.
 std::size_t allocate_leaves(TsdfVolume::Grids& g, const std::vector<Coord>& origins) {
@@ -255,12 +310,6 @@ std::size_t allocate_leaves(TsdfVolume::Grids& g, const std::vector<Coord>& orig
     }
   }
   return created;
-}
-
-std::size_t count_new_leaves(const TsdfVolume::Grids& g, const std::vector<Coord>& origins) {
-  std::size_t count = 0;
-  for (const Coord& origin : origins) count += g.surface->tree().probeConstLeaf(origin) == nullptr;
-  return count;
 }
 
 // Leaves that received no sample are returned to the background so memory follows the surface.
@@ -386,7 +435,7 @@ void TsdfVolume::integrate(const DepthFrame& frame) {
       }
   });
   const std::vector<Coord> origins = collector.leaf_origins();
-  check_memory(count_new_leaves(g, origins), frame.name);
+  check_memory(*this, g, origins, frame.name);
   allocate_leaves(g, origins);
 
   // The accelerated device integrates a prefix of the leaves (all of them, or none where it is not
@@ -453,7 +502,7 @@ void TsdfVolume::integrate(const ScanSurface& scan) {
         }
       });
   const std::vector<Coord> origins = collector.leaf_origins();
-  check_memory(count_new_leaves(g, origins), scan.name);
+  check_memory(*this, g, origins, scan.name);
   allocate_leaves(g, origins);
 
   const TriangleBvh bvh(mesh);
@@ -520,7 +569,7 @@ void TsdfVolume::integrate(const ScanPoints& scan) {
     }
   });
   const std::vector<Coord> origins = collector.leaf_origins();
-  check_memory(count_new_leaves(g, origins), scan.name);
+  check_memory(*this, g, origins, scan.name);
   allocate_leaves(g, origins);
 
   // One thread, points in input order: the running means come out the same bits at any thread count.
@@ -568,7 +617,7 @@ void TsdfVolume::merge_partial(const TsdfVolume& partial) {
                          g.options.voxel_size, ", truncation ", p.truncation, " vs ", g.truncation));
   std::vector<Coord> origins;
   for (auto leaf = p.weight->tree().cbeginLeaf(); leaf; ++leaf) origins.push_back(leaf->origin());
-  check_memory(count_new_leaves(g, origins), "a partial volume");
+  check_memory(*this, g, origins, "a partial volume");
   allocate_leaves(g, origins);
   const bool with_color = g.color && p.color;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, origins.size()),

@@ -19,7 +19,7 @@ namespace pg::fusion {
 
 struct TsdfOptions {
   double voxel_size = 0;         // scene units, > 0
-  double truncation = 0;         // half-width of the signed-distance band; 0 = 4 voxels
+  double truncation = 0;         // half-width of the signed-distance band; 0 = 4 voxels; 1 to 256 voxels
   std::uint64_t max_memory = 0;  // bytes the grids may take; 0 = no limit
   bool color = false;            // keep a colour grid (frames with colour images)
 };
@@ -34,6 +34,10 @@ struct ExtractOptions {
 
 class TsdfVolume {
  public:
+  // The widest band, in voxels: every pixel marks 2 * truncation / voxel voxels along its ray, so a
+  // band far wider than any surface's noise only costs time (1e300 never finished).
+  static constexpr double max_truncation_voxels = 256;
+
   explicit TsdfVolume(const TsdfOptions& options);
   ~TsdfVolume();
   TsdfVolume(TsdfVolume&&) noexcept;
@@ -86,14 +90,10 @@ class TsdfVolume {
   };
   Difference compare(const TsdfVolume& other) const;
 
-  // Bytes one 8^3 leaf takes in the grids (used for the memory estimate).
-  static std::uint64_t bytes_per_leaf(bool color);
-
   struct Grids;
 
  private:
   explicit TsdfVolume(std::unique_ptr<Grids> grids);
-  void check_memory(std::size_t new_leaves, const std::string& input) const;
   std::unique_ptr<Grids> grids_;
 };
 
