@@ -122,6 +122,16 @@ TEST(PgDepth, BadInputsGiveClearErrors) {
   EXPECT_NE(r.stderr_text.find("nope"), std::string::npos);
   r = run_tool("pg-depth", {"--cameras", cameras, "--out-dir", out, "--range", "7,2"});
   EXPECT_EQ(r.exit_code, 2);
+  // No pair to compute was exit 0 with nothing written: a chunk of no pairs, one camera.
+  r = run_tool("pg-depth", {"--cameras", cameras, "--out-dir", out, "--range", "0,0"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.stderr_text.find("COUNT at least 1"), std::string::npos) << r.stderr_text;
+  pg::CameraSet one = pg::read_cameras(cameras);
+  one.cameras.resize(1);
+  pg::write_cameras(shot.dir / "one.json", one);
+  r = run_tool("pg-depth", {"--cameras", (shot.dir / "one.json").string(), "--out-dir", out});
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.stderr_text.find("one.json: holds 1 camera: no pair"), std::string::npos) << r.stderr_text;
   // A pair given twice would write one depth map over the other: refused before either is computed.
   r = run_tool("pg-depth", {"--cameras", cameras, "--out-dir", out, "--pair", "view_0:view_1", "--pair",
                             "view_0:view_1"});

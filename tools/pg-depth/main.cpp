@@ -45,9 +45,14 @@ std::vector<PairIds> parse_pairs(const Options& o, const pg::CameraSet& set) {
     if (colon == std::string::npos) throw pg::UsageError("--pair '" + text + "': expected REF:OTHER");
     pairs.push_back({text.substr(0, colon), text.substr(colon + 1)});
   }
-  if (pairs.empty())  // consecutive cameras in file order
+  if (pairs.empty()) {  // consecutive cameras in file order
     for (std::size_t i = 0; i + 1 < set.cameras.size(); ++i)
       pairs.push_back({set.cameras[i].id, set.cameras[i + 1].id});
+    if (pairs.empty())
+      throw pg::InputError(
+          o.cameras, pg::str("holds ", set.cameras.size(), set.cameras.size() == 1 ? " camera" : " cameras",
+                             ": no pair of consecutive cameras (give --pair REF:OTHER)"));
+  }
   for (const PairIds& p : pairs)
     for (const std::string& id : {p.reference, p.other})
       if (!set.find(id)) throw pg::InputError(o.cameras, "no camera '" + id + "' (named by a pair)");
@@ -55,8 +60,8 @@ std::vector<PairIds> parse_pairs(const Options& o, const pg::CameraSet& set) {
     std::size_t start = 0, count = 0;
     char comma = 0;
     std::istringstream in(o.range);
-    if (!(in >> start >> comma >> count) || comma != ',' || !in.eof())
-      throw pg::UsageError("--range '" + o.range + "': expected START,COUNT");
+    if (!(in >> start >> comma >> count) || comma != ',' || !in.eof() || count == 0)
+      throw pg::UsageError("--range '" + o.range + "': expected START,COUNT with COUNT at least 1");
     if (start >= pairs.size())
       throw pg::UsageError(pg::str("--range starts at ", start, " but there are ", pairs.size(), " pairs"));
     pairs = std::vector<PairIds>(pairs.begin() + static_cast<long>(start),

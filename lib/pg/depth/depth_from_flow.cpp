@@ -99,6 +99,10 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
   const Eigen::Matrix3d ref_to_world = ref.cam_from_world.rotation_matrix().transpose();
   const Eigen::Matrix3d other_to_world = other.cam_from_world.rotation_matrix().transpose();
   cv::Mat1f depth(size, nan), angle(size, 0.f), residual(size, nan);
+  // Textureless pixels are triangulated like the others (so that --keep-all keeps their depth and a
+  // pixel masked in the other view counts as masked) but set aside: their depth, only interpolated
+  // by the flow's smoothness, takes no part in the normals or the discontinuity cuts.
+  cv::Mat1f flat_depth(size, nan);
   cv::Mat1b outcome(size, static_cast<std::uint8_t>(kept));
 
   // 1. Triangulate every pixel with its flow.
@@ -113,10 +117,6 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
         }
         if (!target.allFinite() || !other.in_image(target)) {
           outcome(y, x) = untriangulated;
-          continue;
-        }
-        if (!input.texture.empty() && input.texture(y, x) < options.min_texture) {
-          outcome(y, x) = textureless;
           continue;
         }
         // The nearest pixel; in_image lets a target reach half a pixel past the edge centres.
@@ -141,7 +141,8 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
           outcome(y, x) = untriangulated;
           continue;
         }
-        depth(y, x) = static_cast<float>(depth_of_point(kind, point_ref));
+        const bool flat = !input.texture.empty() && input.texture(y, x) < options.min_texture;
+        (flat ? flat_depth : depth)(y, x) = static_cast<float>(depth_of_point(kind, point_ref));
         angle(y, x) = static_cast<float>(triangulation_angle(centre_ref, centre_other, *point));
         residual(y, x) =
             static_cast<float>(std::max((back_ref - pixel).norm(), (back_other - target).norm()));
@@ -174,6 +175,8 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
           o = epipolar;
         else if (facing < cos_grazing)
           o = grazing;
+        else if (std::isfinite(flat_depth(y, x)))
+          o = textureless;
         outcome(y, x) = o;
         if (o == kept) {
           const double fb_term = filled ? 0.0 : 1.0 - std::min(1.0, fb / fb_limit);
@@ -233,7 +236,10 @@ DepthFromFlowResult depth_from_flow(const DepthFromFlowInput& input, const Depth
       }
       if (outcome(y, x) != kept) {
         confidence(y, x) = 0.f;
-        if (!options.keep_all || outcome(y, x) == masked) depth(y, x) = nan;
+        if (!options.keep_all || outcome(y, x) == masked)
+          depth(y, x) = nan;
+        else if (std::isfinite(flat_depth(y, x)))
+          depth(y, x) = flat_depth(y, x);
       }
     }
 

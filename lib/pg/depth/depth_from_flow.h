@@ -36,7 +36,7 @@ struct DepthRejections {
   std::size_t epipolar = 0;
   std::size_t grazing = 0;
   std::size_t discontinuity = 0;
-  std::size_t textureless = 0;  // reference image too flat to match (min_texture)
+  std::size_t textureless = 0;  // passes the checks above but the reference is too flat (min_texture)
 };
 
 struct DepthFromFlowResult {

@@ -159,10 +159,8 @@ TEST(DepthPair, RejectsCamerasWithoutBaselineAndMismatchedImages) {
   EXPECT_THROW(pg::compute_depth_pair(input), pg::UsageError);
 }
 
-TEST(DepthFromFlow, ExactFlowTriangulatesExactlyAndMasksAreHonoured) {
-  // Flow from the true depth: projecting each pixel's true point into the other view.
-  const pg::Camera& a = scene().left;
-  const pg::Camera& b = scene().right;
+// Flow from the true depth: each pixel of `a` moves to where its true point projects in `b`.
+cv::Mat2f exact_flow(const pg::Camera& a, const pg::Camera& b) {
   cv::Mat2f flow(a.height, a.width);
   for (int y = 0; y < a.height; ++y)
     for (int x = 0; x < a.width; ++x) {
@@ -173,10 +171,17 @@ TEST(DepthFromFlow, ExactFlowTriangulatesExactlyAndMasksAreHonoured) {
       b.project_world(p, q);
       flow(y, x) = cv::Vec2f(static_cast<float>(q.x() - x), static_cast<float>(q.y() - y));
     }
+  return flow;
+}
+
+TEST(DepthFromFlow, ExactFlowTriangulatesExactlyAndMasksAreHonoured) {
+  // Flow from the true depth: projecting each pixel's true point into the other view.
+  const pg::Camera& a = scene().left;
+  const pg::Camera& b = scene().right;
   pg::DepthFromFlowInput input;
   input.reference = &a;
   input.other = &b;
-  input.flow = flow;
+  input.flow = exact_flow(a, b);
   input.reference_mask = cv::Mat1b::zeros(a.height, a.width);
   input.reference_mask(cv::Rect(0, 0, 40, 40)).setTo(255);
   const pg::DepthFromFlowResult result = pg::depth_from_flow(input);
@@ -193,6 +198,41 @@ TEST(DepthFromFlow, ExactFlowTriangulatesExactlyAndMasksAreHonoured) {
   const cv::Vec3f n = result.map.normals.at<cv::Vec3f>(y, x);
   EXPECT_GT(expected.dot(Eigen::Vector3d(n[0], n[1], n[2])), 0.999);
   EXPECT_GT(result.valid_fraction(), 0.8);
+}
+
+// Textureless pixels are rejected after the other checks: --keep-all keeps their (triangulated)
+// depth, and a pixel the other view's mask hides counts as masked, not textureless. Before, they
+// were rejected before triangulation, so --keep-all left them NaN.
+TEST(DepthFromFlow, TexturelessPixelsAreTriangulatedAndCountedLast) {
+  const pg::Camera& a = scene().left;
+  const pg::Camera& b = scene().right;
+  pg::DepthFromFlowInput input;
+  input.reference = &a;
+  input.other = &b;
+  input.flow = exact_flow(a, b);
+  input.texture = cv::Mat1f(a.height, a.width, 1.0f);
+  const cv::Rect flat(150, 110, 20, 20);  // on the sphere, seen by both views
+  input.texture(flat).setTo(0.0f);
+  pg::DepthFilterOptions options;
+  const pg::DepthFromFlowResult filtered = pg::depth_from_flow(input, options);
+  EXPECT_EQ(filtered.rejections.textureless, std::size_t(flat.area()));
+  EXPECT_TRUE(std::isnan(filtered.map.depth.at<float>(120, 160)));
+
+  options.keep_all = true;
+  const pg::DepthFromFlowResult all = pg::depth_from_flow(input, options);
+  EXPECT_EQ(all.rejections.textureless, std::size_t(flat.area()));
+  EXPECT_EQ(all.valid, filtered.valid);
+  for (int y = flat.y; y < flat.br().y; ++y)
+    for (int x = flat.x; x < flat.br().x; ++x) {
+      EXPECT_NEAR(all.map.depth.at<float>(y, x), scene().left_view.depth(y, x), 1e-4) << x << "," << y;
+      EXPECT_EQ(all.map.confidence.at<float>(y, x), 0.f);
+    }
+
+  input.other_mask = cv::Mat1b(b.height, b.width, std::uint8_t{255});
+  const pg::DepthFromFlowResult hidden = pg::depth_from_flow(input, options);
+  EXPECT_EQ(hidden.rejections.textureless, 0u);
+  EXPECT_EQ(hidden.valid, 0u);
+  EXPECT_GE(hidden.rejections.masked, filtered.valid + std::size_t(flat.area()));
 }
 
 TEST(DepthGeometry, GridMeshFacesTheCameraAndSkipsInvalidPixels) {
