@@ -9,6 +9,7 @@
 #include "pg/core/log.h"
 #include "pg/flow/level_solver.h"
 #include "pg/flow/line_search.h"
+#include "pg/image/image_io.h"
 #include "pg/image/pyramid.h"
 
 namespace pg {
@@ -46,7 +47,7 @@ std::vector<cv::Mat1f> flow_channels(const cv::Mat& image, const FlowOptions& op
   std::vector<cv::Mat1f> channels;
   for (const cv::Mat& plane : planes) {
     cv::Mat1f channel = plane;
-    cv::patchNaNs(channel, 0.0);
+    zero_non_finite(channel);
     channels.push_back(gaussian_blur(channel, options.presmooth_sigma));
   }
   return channels;

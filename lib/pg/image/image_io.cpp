@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -136,6 +137,7 @@ double unit_scale(int depth) {
 cv::Mat to_float(const cv::Mat& image) {
   cv::Mat out;
   image.convertTo(out, CV_32F, unit_scale(image.depth()));
+  zero_non_finite(out);
   return out;
 }
 
@@ -292,6 +294,20 @@ void write_image(const fs::path& path, const cv::Mat& image) {
     }
     if (!written) throw OutputError(path, "cannot encode or write image");
   });
+}
+
+std::size_t zero_non_finite(cv::Mat& image) {
+  if (image.depth() != CV_32F) return 0;
+  std::size_t count = 0;
+  for (int y = 0; y < image.rows; ++y) {
+    float* row = image.ptr<float>(y);
+    for (int i = 0, n = image.cols * image.channels(); i < n; ++i)
+      if (!std::isfinite(row[i])) {
+        row[i] = 0.0f;
+        ++count;
+      }
+  }
+  return count;
 }
 
 cv::Mat to_float_gray(const cv::Mat& image) {

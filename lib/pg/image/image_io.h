@@ -40,8 +40,13 @@ std::uint64_t decoded_image_bytes_per_pixel(const std::filesystem::path& path);
 // A depth the codec cannot store throws OutputError (no silent rescaling).
 void write_image(const std::filesystem::path& path, const cv::Mat& image);
 
-// Conversions used by ReadMode, for images already in memory.
+// Conversions used by ReadMode, for images already in memory. NaN and infinite samples become 0.
 cv::Mat to_float_gray(const cv::Mat& image);
 cv::Mat to_float_color(const cv::Mat& image);
+
+// Sets the NaN and infinite samples of a float image (any channel count) to 0, black: one such pixel
+// of a scene-linear plate (a comp's division by zero) would otherwise spread through a flow's
+// smoothing, a window sum or a mean. Other depths are left alone. Returns how many samples it set.
+std::size_t zero_non_finite(cv::Mat& image);
 
 }  // namespace pg

@@ -135,6 +135,26 @@ TEST(ImageIo, FloatModesScaleIntegerDataToUnitRange) {
   EXPECT_FLOAT_EQ(to_float_gray(hdr).at<float>(0, 0), 12.5f);
 }
 
+// NaN and infinity are kept as stored, and read as black by the float modes.
+TEST(ImageIo, FloatModesReadNonFiniteSamplesAsBlack) {
+  testing::TempDir dir;
+  cv::Mat3f plate(2, 2, cv::Vec3f(0.25f, 0.5f, 2.0f));
+  plate(0, 1) = cv::Vec3f(NAN, 0.5f, 0.5f);
+  plate(1, 0) = cv::Vec3f(INFINITY, -INFINITY, 0.5f);
+  write_image(dir / "plate.exr", plate);
+  const cv::Mat stored = read_image(dir / "plate.exr");
+  EXPECT_TRUE(std::isnan(stored.at<cv::Vec3f>(0, 1)[0]));
+  const cv::Mat colour = read_image(dir / "plate.exr", ReadMode::color_float);
+  EXPECT_EQ(colour.at<cv::Vec3f>(0, 1), cv::Vec3f(0, 0.5f, 0.5f));
+  EXPECT_EQ(colour.at<cv::Vec3f>(1, 0), cv::Vec3f(0, 0, 0.5f));
+  EXPECT_EQ(colour.at<cv::Vec3f>(1, 1), plate(1, 1));
+  const cv::Mat grey = read_image(dir / "plate.exr", ReadMode::gray_float);
+  EXPECT_TRUE(cv::checkRange(grey));
+  EXPECT_FLOAT_EQ(grey.at<float>(0, 0), 0.114f * 0.25f + 0.587f * 0.5f + 0.299f * 2.0f);
+  cv::Mat copy = stored.clone();
+  EXPECT_EQ(zero_non_finite(copy), 3u);
+}
+
 TEST(ImageIo, SingleZChannelExrReadsAsOneChannel) {
   testing::TempDir dir;
   // read_image takes an EXR whose only channel is not Y (a bare depth file).

@@ -15,10 +15,15 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-float sample_bilinear(const cv::Mat1f& image, double x, double y) {
+// Bilinear, clamped at the edges, except that a panorama's columns wrap around (the seam at 180
+// degrees of longitude joins its last column to its first).
+float sample_bilinear(const cv::Mat1f& image, double x, double y, bool wraps) {
   const double fx = std::floor(x), fy = std::floor(y);
   const float ax = float(x - fx), ay = float(y - fy);
-  const int x0 = std::clamp(int(fx), 0, image.cols - 1), x1 = std::clamp(int(fx) + 1, 0, image.cols - 1);
+  const auto column = [&](int c) {
+    return wraps ? (c % image.cols + image.cols) % image.cols : std::clamp(c, 0, image.cols - 1);
+  };
+  const int x0 = column(int(fx)), x1 = column(int(fx) + 1);
   const int y0 = std::clamp(int(fy), 0, image.rows - 1), y1 = std::clamp(int(fy) + 1, 0, image.rows - 1);
   const float top = image(y0, x0) * (1 - ax) + image(y0, x1) * ax;
   const float bottom = image(y1, x0) * (1 - ax) + image(y1, x1) * ax;
@@ -76,7 +81,7 @@ void synthesize(const Mesh& mesh, const RefineViewState& a, const RefineViewStat
   const int w = b.camera.width, h = b.camera.height;
   out.image.create(h, w);
   out.valid.create(h, w);
-  const bool range_depth = !a.camera.is_perspective();
+  const bool range_depth = !a.camera.is_perspective(), a_wraps = !a.camera.is_perspective();
   parallel_chunks(h, 8, [&](std::int64_t y0, std::int64_t y1) {
     for (int y = int(y0); y < int(y1); ++y)
       for (int x = 0; x < w; ++x) {
@@ -87,12 +92,13 @@ void synthesize(const Mesh& mesh, const RefineViewState& a, const RefineViewStat
         const Eigen::Vector3d in_a = a.camera.cam_from_world * hit_point(mesh, b.buffers, i);
         Eigen::Vector2d pixel;
         if (!a.camera.project(in_a, pixel) || !a.camera.in_image(pixel)) continue;
-        const int nx = std::clamp(int(std::lround(pixel.x())), 0, a.camera.width - 1);
+        const int rounded = int(std::lround(pixel.x())), width = a.camera.width;
+        const int nx = a_wraps ? (rounded % width + width) % width : std::clamp(rounded, 0, width - 1);
         const int ny = std::clamp(int(std::lround(pixel.y())), 0, a.camera.height - 1);
         const double seen = a.buffers.depth.at<float>(ny, nx);
         const double own = range_depth ? in_a.norm() : in_a.z();
         if (!(std::abs(seen - own) <= relative_depth_tolerance * std::abs(own))) continue;  // NaN too
-        out.image(y, x) = sample_bilinear(a.gray, pixel.x(), pixel.y());
+        out.image(y, x) = sample_bilinear(a.gray, pixel.x(), pixel.y(), a_wraps);
         out.valid(y, x) = 255;
       }
   });
@@ -198,6 +204,29 @@ double offset_sigma(const RefineViewState& a, const RefineViewState& b, const Ei
 
 }  // namespace
 
+cv::Mat1f border_taper(const cv::Mat1b& valid, double taper_px, bool panorama) {
+  if (!(taper_px > 0)) return cv::Mat1f(valid.size(), 1.0f);
+  cv::Mat1b framed;
+  cv::Rect inside;
+  if (panorama) {
+    // No edge: the columns wrap (copies of the other side, wide enough for the ramp) and the poles
+    // are no border of the flow.
+    const int pad = std::min(valid.cols, int(std::ceil(taper_px)) + 1);
+    cv::copyMakeBorder(valid, framed, 0, 0, pad, pad, cv::BORDER_WRAP);
+    inside = cv::Rect(pad, 0, valid.cols, valid.rows);
+  } else {
+    // The frame of zeros makes the image's edge a border too (the flow is least sure there); without
+    // it the distance transform takes the outside for far away.
+    cv::copyMakeBorder(valid, framed, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+    inside = cv::Rect(1, 1, valid.cols, valid.rows);
+  }
+  cv::Mat1f distance;
+  cv::distanceTransform(framed, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  cv::Mat1f taper = distance(inside) * (1.0 / taper_px);
+  cv::min(taper, 1.0, taper);
+  return taper;
+}
+
 std::size_t estimate_displacements(const Mesh& mesh, const RefineViewState& a, const RefineViewState& b,
                                    const SyntheticView& synthetic, const RefineOptions& options,
                                    double max_displacement, DisplacementSums& sums, double* flow_seconds) {
@@ -213,9 +242,7 @@ std::size_t estimate_displacements(const Mesh& mesh, const RefineViewState& a, c
   }
   if (flow_seconds) *flow_seconds += seconds_since(flow_start);
 
-  // Distance to the border of the co-visible region, for the taper.
-  cv::Mat1f border_distance;
-  cv::distanceTransform(synthetic.valid, border_distance, cv::DIST_L2, 3);
+  const cv::Mat1f taper = border_taper(synthetic.valid, options.border_taper_px, !b.camera.is_perspective());
 
   const double sin_min_angle = std::sin(options.min_triangulation_angle_deg * M_PI / 180.0);
   const double min_denominator = sin_min_angle * sin_min_angle;
@@ -247,11 +274,9 @@ std::size_t estimate_displacements(const Mesh& mesh, const RefineViewState& a, c
         if (t <= 0 || s <= 0) continue;
         const Eigen::Vector3d displacement = (t - t_current) * u;
         if (!(displacement.norm() <= max_displacement)) continue;
-        const double residual = synthetic.image(y, x) - sample_bilinear(b.gray, corrected.x(), corrected.y());
+        const double residual = synthetic.image(y, x) - sample_bilinear(b.gray, corrected.x(), corrected.y(),
+                                                                        !b.camera.is_perspective());
         const double confidence = 1.0 / (1.0 + residual * residual / sigma2);
-        const double taper = options.border_taper_px > 0
-                                 ? std::min(1.0, border_distance(y, x) / options.border_taper_px)
-                                 : 1.0;
         const Eigen::Vector3d normal = face_normal(mesh, b.buffers.triangle[i]);
         double precision = 1;
         if (options.mesh_accuracy > 0) {
@@ -261,7 +286,7 @@ std::size_t estimate_displacements(const Mesh& mesh, const RefineViewState& a, c
           if (!(sigma > 0)) continue;
           precision = 1 / (sigma * sigma);
         }
-        pixel_weight[i] = float(confidence * taper * precision);
+        pixel_weight[i] = float(confidence * taper(y, x) * precision);
         pixel_offset[i] = float(displacement.dot(normal));
       }
   });

@@ -63,6 +63,11 @@ struct DisplacementSums {
   Eigen::Vector3d solve(std::size_t v) const;
 };
 
+// Per pixel of B, the weight ramp min(1, d / taper_px), d the distance to the nearest pixel outside
+// `valid` or outside the image (so 1 / taper_px on the image's edge); all 1 when taper_px is 0. A
+// panorama has no edge: its columns wrap around and its poles are not borders.
+cv::Mat1f border_taper(const cv::Mat1b& valid, double taper_px, bool panorama = false);
+
 // Flow from the synthetic B to the real B, per-pixel triangulated displacements, accumulated into
 // `sums`. Returns the number of pixels that contributed.
 std::size_t estimate_displacements(const Mesh& mesh, const RefineViewState& a, const RefineViewState& b,

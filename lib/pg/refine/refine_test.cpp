@@ -141,6 +141,29 @@ TEST(Refine, EpipolarLinesCarryTheSurfacePointsAlongARay) {
   EXPECT_GT(checked, 500u);
 }
 
+// The weights ramp up from the image's edge as from the co-visible region's: before, a pixel on the
+// edge of B's image had the full weight.
+TEST(Refine, BorderTaperRampsFromTheImageEdgeAndTheRegionBorder) {
+  cv::Mat1b valid(20, 30, std::uint8_t{255});
+  valid(cv::Rect(20, 0, 10, 20)).setTo(0);
+  const cv::Mat1f taper = pg::border_taper(valid, 4);
+  EXPECT_FLOAT_EQ(taper(10, 0), 0.25f);   // on the left edge
+  EXPECT_FLOAT_EQ(taper(0, 10), 0.25f);   // on the top edge
+  EXPECT_FLOAT_EQ(taper(10, 19), 0.25f);  // next to the invalid part
+  EXPECT_FLOAT_EQ(taper(10, 2), 0.75f);
+  EXPECT_FLOAT_EQ(taper(10, 10), 1.0f);
+  EXPECT_FLOAT_EQ(taper(10, 25), 0.0f);
+  EXPECT_EQ(cv::countNonZero(pg::border_taper(valid, 0) != 1.0f), 0);
+  // A panorama's left edge continues its right one: only the invalid band is a border.
+  valid.setTo(255);
+  valid(cv::Rect(10, 0, 5, 20)).setTo(0);
+  const cv::Mat1f wrapped = pg::border_taper(valid, 4, true);
+  EXPECT_FLOAT_EQ(wrapped(10, 0), 1.0f);
+  EXPECT_FLOAT_EQ(wrapped(0, 25), 1.0f);
+  EXPECT_FLOAT_EQ(wrapped(10, 29), 1.0f);
+  EXPECT_FLOAT_EQ(wrapped(10, 16), 0.5f);
+}
+
 TEST(Refine, PinsAndVerticesOutsideTheWorkingSetStayBitForBit) {
   const DeformFixture& f = deform();
   const pg::Mesh& initial = *f.scene.initial_mesh;

@@ -17,8 +17,9 @@ struct VertexGraph {
 };
 VertexGraph vertex_graph(const Mesh& mesh);
 
-// Motion factor per vertex in [0, 1]: working_set * (1 - pinned) * taper, where taper ramps from
-// 1 / (rings + 1) next to a vertex that may not move (factor 0) to 1 at `rings` rings inside.
+// Motion factor per vertex in [0, 1]: working_set * (1 - pinned) * taper, where taper is
+// r / (rings + 1) at r rings from the nearest vertex that may not move (factor 0), for r = 1 to
+// `rings`, and 1 beyond: 1 / (rings + 1) next to it, 1 from ring rings + 1 on.
 // Empty masks mean "all" and "none". Exactly 0 where the working set is 0 or pinned is 1.
 std::vector<float> motion_factors(const VertexGraph& graph, const std::vector<float>& working_set,
                                   const std::vector<float>& pinned, int taper_rings);
