@@ -129,12 +129,14 @@ TEST(RunReport, HasProvenanceHashesAndMemory) {
   auto& r = pg::RunReport::global();
   r.reset();
   r.add_input(in);
+  r.add_input(in);  // read twice, listed once
   r.set_metric("rms", 0.25);
   r.add_timing("solve", 1.5);
   auto j = r.to_json();
   EXPECT_EQ(j["format"], "pg-run-report");
   EXPECT_EQ(j["inputs"][0]["sha256"], "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
   EXPECT_EQ(j["inputs"][0]["bytes"], 3);
+  EXPECT_EQ(j["inputs"].size(), 1u);
   EXPECT_EQ(j["metrics"]["rms"], 0.25);
   EXPECT_GT(j["peak_memory_bytes"].get<std::uint64_t>(), 0u);
   r.reset();

@@ -1,5 +1,7 @@
 #include "pg/core/provenance.h"
 
+#include <algorithm>
+
 #include <chrono>
 #include <ctime>
 #include <mutex>
@@ -33,7 +35,8 @@ void Provenance::set_current(Provenance p) {
 
 void Provenance::add_current_input(const std::string& path) {
   std::lock_guard lock(g_mutex);
-  current_storage().inputs.push_back(path);
+  std::vector<std::string>& inputs = current_storage().inputs;
+  if (std::find(inputs.begin(), inputs.end(), path) == inputs.end()) inputs.push_back(path);
 }
 
 nlohmann::json to_json(const Provenance& p) {

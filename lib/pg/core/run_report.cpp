@@ -2,6 +2,8 @@
 
 #include <sys/resource.h>
 
+#include <algorithm>
+
 #include "pg/build_info.h"
 #include "pg/core/hash.h"
 #include "pg/core/json_file.h"
@@ -25,7 +27,8 @@ void RunReport::set_tool(std::string tool, std::string command_line) {
 
 void RunReport::add_input(const fs::path& path) {
   std::lock_guard lock(mutex_);
-  inputs_.push_back(path);
+  // A file read twice (one colour image for two depth maps) is one input.
+  if (std::find(inputs_.begin(), inputs_.end(), path) == inputs_.end()) inputs_.push_back(path);
 }
 
 void RunReport::add_output(const fs::path& path) {
