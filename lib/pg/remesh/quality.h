@@ -44,7 +44,8 @@ struct HausdorffDistance {
 
 // Symmetric Hausdorff distance between the selected faces of a and of b (each measured against the
 // other whole surface), from the vertices and a barycentric lattice on every selected face with
-// points at most `spacing` apart. Empty selections mean every face. Deterministic and threaded.
+// points at most `spacing` apart (at most 64 steps along an edge: faces longer than 64 spacings are
+// sampled more coarsely). Empty selections mean every face. Deterministic and threaded.
 HausdorffDistance hausdorff_distance(const Mesh& a, const std::vector<bool>& a_faces, const Mesh& b,
                                      const std::vector<bool>& b_faces, float spacing);
 

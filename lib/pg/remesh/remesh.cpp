@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 #include "pg/core/error.h"
 #include "pg/core/log.h"
@@ -470,16 +471,28 @@ class IsotropicRemesher : private Properties {
   }
 };
 
+// A face's unit normal, or nullopt for a face of (almost) no area, whose normal says nothing: its
+// cross product is below 1e-6 of its longest edge squared (collinear or coinciding corners).
+std::optional<Vec3> proper_normal(const TriMesh& mesh, FaceHandle f) {
+  auto v = mesh.cfv_iter(f);
+  const Vec3 a = mesh.point(*v), b = mesh.point(*++v), c = mesh.point(*++v);
+  const Vec3 n = OpenMesh::cross(b - a, c - a);
+  const float longest = std::max({(b - a).sqrnorm(), (c - b).sqrnorm(), (a - c).sqrnorm()});
+  if (!(n.norm() > 1e-6f * longest)) return std::nullopt;
+  return n.normalized();
+}
+
 // Marks feature edges (boundaries, and dihedral angles above the threshold) and corner vertices
-// (feature vertices where the feature edges do not continue as one line).
+// (feature vertices where the feature edges do not continue as one line). An edge of a face without
+// area is no feature (before, its zero normal made it one, and kept the sliver in the output).
 void mark_features(TriMesh& mesh, const Properties& r, float feature_cos) {
   for (const auto e : mesh.edges()) {
     bool feature = mesh.is_boundary(e);
     if (!feature) {
       const HalfedgeHandle h = mesh.halfedge_handle(e, 0);
-      const Vec3 n0 = mesh.calc_face_normal(mesh.face_handle(h));
-      const Vec3 n1 = mesh.calc_face_normal(mesh.opposite_face_handle(h));
-      feature = OpenMesh::dot(n0, n1) < feature_cos;
+      const std::optional<Vec3> n0 = proper_normal(mesh, mesh.face_handle(h));
+      const std::optional<Vec3> n1 = proper_normal(mesh, mesh.opposite_face_handle(h));
+      feature = n0 && n1 && OpenMesh::dot(*n0, *n1) < feature_cos;
     }
     mesh.property(r.efeature, e) = feature;
   }

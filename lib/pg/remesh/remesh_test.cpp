@@ -68,6 +68,29 @@ TEST(Remesh, SphereReachesTheTargetQualityAndStaysOnTheSphere) {
     EXPECT_NEAR(p.norm(), 1.0f, 0.005f);  // chords of the input lie inside
 }
 
+// A sliver of no area (an edge split on one side only, its midpoint closing the gap) has no normal:
+// its edges are no features, so it is remeshed away like any bad triangle. Before, its zero normal
+// made its three edges features and the sliver stayed.
+TEST(Remesh, FacesWithoutAreaAreNoFeaturesAndDoNotSurvive) {
+  Mesh sphere = test::uv_sphere(16, 32, 1.0f);
+  const std::array<std::uint32_t, 3> face = sphere.faces[200];
+  const std::uint32_t a = face[0], b = face[1], c = face[2];
+  const auto m = std::uint32_t(sphere.positions.size());
+  sphere.positions.push_back(0.5f * (sphere.positions[b] + sphere.positions[c]));
+  sphere.faces[200] = {a, b, m};
+  sphere.faces.push_back({a, m, c});
+  sphere.faces.push_back({b, c, m});  // collinear: no area
+  RemeshOptions options;
+  options.target_length = 0.1f;
+  const RemeshResult r = remesh(sphere, options);
+  EXPECT_EQ(r.stats.feature_edges, 0u);
+  EXPECT_EQ(r.stats.corner_vertices, 0u);
+  for (const auto& f : r.mesh.faces) {
+    const Eigen::Vector3f p = r.mesh.positions[f[0]], q = r.mesh.positions[f[1]], t = r.mesh.positions[f[2]];
+    EXPECT_GT((q - p).cross(t - p).norm(), 0.01f * options.target_length * options.target_length);
+  }
+}
+
 TEST(Remesh, BoxKeepsItsSharpEdgesAndCorners) {
   const Eigen::Vector3f size(1.0f, 0.6f, 0.8f);
   const Mesh box = test::box(size, 7);
