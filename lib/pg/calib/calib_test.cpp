@@ -9,6 +9,7 @@
 #include "pg/calib/corner_fit.h"
 #include "pg/calib/detect.h"
 #include "pg/calib/flatten.h"
+#include "pg/calib/stereo.h"
 #include "pg/core/error.h"
 
 using namespace pg;
@@ -184,6 +185,50 @@ TEST(Calibrate, RejectsOutlierCorners) {
   CalibrationOptions keep_all;
   keep_all.corner_outlier_sigmas = 0;
   EXPECT_GT(calibrate(views, board, size, keep_all).rms, r.rms);
+}
+
+// A point-symmetric board (8x6 inner corners: the colours look the same turned by 180 degrees) lets
+// a detector list one camera's corners from the other end. Those pairs are reversed before the
+// stereo solve, which then recovers the rig; before, they pulled the baseline off.
+TEST(Stereo, CornersListedFromTheOtherEndAreReversed) {
+  const BoardSpec symmetric{8, 6, 0.03};
+  const Camera left = pinhole_truth();
+  Camera right = left;
+  right.id = "right";
+  Rigid3 right_from_left;
+  right_from_left.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitY()));
+  right_from_left.translation = {-0.12, 0.002, 0.001};
+  const Eigen::Vector3d centre(0.5 * 7 * 0.03, 0.5 * 5 * 0.03, 0);
+  std::vector<ViewInput> first, second;
+  for (int i = 0; i < 8; ++i) {
+    Rigid3 board_in_left;
+    board_in_left.rotation =
+        Eigen::Quaterniond(Eigen::AngleAxisd(0.4 * std::sin(i), Eigen::Vector3d::UnitX()) *
+                           Eigen::AngleAxisd(0.4 * std::cos(1.7 * i), Eigen::Vector3d::UnitY()) *
+                           Eigen::AngleAxisd(0.2 * i - 0.7, Eigen::Vector3d::UnitZ()));
+    board_in_left.translation =
+        Eigen::Vector3d(0.05 * std::cos(i), 0.04 * std::sin(2 * i), 0.6) - board_in_left.rotation * centre;
+    ViewInput a{"pair" + std::to_string(i), {}}, b = a;
+    for (const cv::Point3f& p : board_points(symmetric)) {
+      const Eigen::Vector3d in_left = board_in_left * Eigen::Vector3d(p.x, p.y, p.z);
+      Eigen::Vector2d pa, pb;
+      ASSERT_TRUE(left.project(in_left, pa) && left.in_image(pa));
+      ASSERT_TRUE(right.project(right_from_left * in_left, pb) && right.in_image(pb));
+      a.corners.emplace_back(float(pa.x()), float(pa.y()));
+      b.corners.emplace_back(float(pb.x()), float(pb.y()));
+    }
+    if (i == 2 || i == 5) std::reverse(b.corners.begin(), b.corners.end());
+    first.push_back(a);
+    second.push_back(b);
+  }
+  const StereoResult r = stereo_calibrate(first, second, symmetric, left, right);
+  EXPECT_EQ(r.reversed_orders, 2);
+  EXPECT_NEAR(r.baseline, right_from_left.translation.norm(), 1e-4);
+  EXPECT_LT((r.second_from_first.translation - right_from_left.translation).norm(), 1e-4);
+  EXPECT_LT(r.rms, 0.01);
+  // In the order found, nothing is reversed.
+  for (int i : {2, 5}) std::reverse(second[i].corners.begin(), second[i].corners.end());
+  EXPECT_EQ(stereo_calibrate(first, second, symmetric, left, right).reversed_orders, 0);
 }
 
 TEST(Calibrate, TooFewViewsFails) {

@@ -108,7 +108,8 @@ nlohmann::ordered_json calibration_report_json(const BoardSpec& board, const Cal
     j["stereo"] = {{"second_from_first", pose_json(stereo->second_from_first)},
                    {"baseline_m", stereo->baseline},
                    {"rms_px", stereo->rms},
-                   {"pairs", stereo->pairs}};
+                   {"pairs", stereo->pairs},
+                   {"reversed_orders", stereo->reversed_orders}};
   }
   return j;
 }
