@@ -120,6 +120,19 @@ TEST(PgRemesh, NothingDeformedPassesTheMeshThrough) {
   EXPECT_EQ(same.faces, s.after.faces);
 }
 
+// A mask given as the region (--mask) and as a mask to carry has one output: before, the two
+// declarations of out.<name>.pgmask.json failed the run (exit 6, two outputs in one file).
+TEST(PgRemesh, AMaskGivenTwiceIsWrittenOnce) {
+  Scene s;
+  const auto r = run_tool("pg-remesh", {"--in", s.path("after.ply"), "--out", s.path("out.ply"), "--mask",
+                                        s.path("working_set.pgmask.json"), "--carry-mask",
+                                        s.path("working_set.pgmask.json"), "--target-length", "0.015"});
+  ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+  const pg::Mesh out = pg::read_mesh(s.dir / "out.ply");
+  EXPECT_NO_THROW(pg::check_fits(pg::read_vertex_mask(s.dir / "out.working_set.pgmask.json"), out,
+                                 "out.working_set.pgmask.json"));
+}
+
 TEST(PgRemesh, ClearErrorsForBadInput) {
   Scene s;
   pg::testing::write_text(s.dir / "nan.ply",

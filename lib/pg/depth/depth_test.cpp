@@ -235,6 +235,23 @@ TEST(DepthFromFlow, TexturelessPixelsAreTriangulatedAndCountedLast) {
   EXPECT_GE(hidden.rejections.masked, filtered.valid + std::size_t(flat.area()));
 }
 
+// A target on the image's left edge (x = -0.5, inside the image) reads the other mask's first column:
+// the nearest column was lround(-0.5) = -1, outside the mask.
+TEST(DepthFromFlow, TargetsOnTheImageEdgeReadTheOtherMasksEdge) {
+  const pg::Camera& a = scene().left;
+  const pg::Camera& b = scene().right;
+  pg::DepthFromFlowInput input;
+  input.reference = &a;
+  input.other = &b;
+  input.flow = cv::Mat2f(a.height, a.width);
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) input.flow(y, x) = cv::Vec2f(-0.5f - float(x), 0.0f);
+  input.other_mask = cv::Mat1b::zeros(b.height, b.width);
+  input.other_mask.col(0).setTo(255);
+  const pg::DepthFromFlowResult result = pg::depth_from_flow(input);
+  EXPECT_EQ(result.rejections.masked, std::size_t(a.width) * std::size_t(a.height));
+}
+
 TEST(DepthGeometry, GridMeshFacesTheCameraAndSkipsInvalidPixels) {
   pg::DepthMap map;
   map.camera = look_at_camera("c", {0, 0, 0}, {0, 0, 1}, 3, 3, 3);

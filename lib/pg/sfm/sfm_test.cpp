@@ -303,6 +303,16 @@ TEST(SfmOutputs, ScaleToDistanceSetsTheBaseline) {
   EXPECT_NEAR((r.cameras[0].cam_from_world.centre() - r.cameras[5].cam_from_world.centre()).norm(), 2.5,
               1e-9);
   EXPECT_THROW(scale_to_distance(r, "v0", "nope", 1), UsageError);
+  // A camera that was not registered, or two that coincide, cannot set the scale: a failed
+  // computation (exit code 4), not bad usage, and nothing is scaled.
+  const Eigen::Vector3d before = r.cameras[3].cam_from_world.centre();
+  SfmResult unregistered = r;
+  unregistered.registered[5] = false;
+  EXPECT_THROW(scale_to_distance(unregistered, "v0", "v5", 1), FailedError);
+  SfmResult coinciding = r;
+  coinciding.cameras[5].cam_from_world = coinciding.cameras[0].cam_from_world;
+  EXPECT_THROW(scale_to_distance(coinciding, "v0", "v5", 1), FailedError);
+  EXPECT_EQ(coinciding.cameras[3].cam_from_world.centre(), before);
   const cv::Mat view = render_top_view(r, 200);
   EXPECT_EQ(view.rows, 200);
 }
