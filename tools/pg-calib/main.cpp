@@ -14,6 +14,7 @@
 #include "pg/calib/stereo.h"
 #include "pg/camera/camera_json.h"
 #include "pg/camera/cameras_io.h"
+#include "pg/camera/size_check.h"
 #include "pg/core/atomic_file.h"
 #include "pg/core/error.h"
 #include "pg/core/log.h"
@@ -87,13 +88,6 @@ void check_one_size(const std::vector<fs::path>& files) {
     if (!first) first.emplace(f, *size);
     require_first_size(f, *size, first->first, first->second);
   }
-}
-
-// Throws unless `image` (of `size`) is the size of `camera`.
-void require_camera_size(const fs::path& image, cv::Size size, const Camera& camera) {
-  if (size.width != camera.width || size.height != camera.height)
-    throw InputError(image, str("is ", size.width, "x", size.height, ", camera \"", camera.id, "\" is ",
-                                camera.width, "x", camera.height));
 }
 
 // Detects the board in every image (all the same size) and calibrates.
@@ -282,7 +276,7 @@ void run_flatten(cli::Frame& frame, const std::string& cameras_path, const std::
     // Every image's size from its header before the first is flattened (formats without a header pg
     // can peek are checked when decoded).
     if (const std::optional<cv::Size> size = peek_image_size(job.image))
-      require_camera_size(job.image, *size, job.camera);
+      require_camera_size(job.image, size->width, size->height, job.camera);
   }
   const fs::path cameras_out = fs::path(out) / "cameras.json";
   frame.output(cameras_out);
@@ -292,7 +286,7 @@ void run_flatten(cli::Frame& frame, const std::string& cameras_path, const std::
   double valid = 1;
   for (const Job& job : jobs) {
     const cv::Mat image = read_image(job.image);
-    require_camera_size(job.image, image.size(), job.camera);
+    require_camera_size(job.image, image.cols, image.rows, job.camera);
     const std::string key = nlohmann::json(camera_to_json([&] {
                               Camera c = job.camera;
                               c.id.clear();

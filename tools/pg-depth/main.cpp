@@ -7,6 +7,7 @@
 
 #include "common/cli.h"
 #include "pg/camera/cameras_io.h"
+#include "pg/camera/size_check.h"
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/core/provenance.h"
@@ -83,24 +84,17 @@ fs::path mask_path(const Options& o, const pg::Camera& camera) {
   return fs::exists(path) ? path : fs::path();
 }
 
-// Throws unless an image or mask (`what`) of `size` has its camera's size.
-void require_camera_size(const fs::path& path, cv::Size size, const pg::Camera& camera, const char* what) {
-  if (size.width != camera.width || size.height != camera.height)
-    throw pg::InputError(path, pg::str(what, " is ", size.width, "x", size.height, " but camera '", camera.id,
-                                       "' is ", camera.width, "x", camera.height));
-}
-
 cv::Mat1b read_mask(const Options& o, const pg::Camera& camera) {
   const fs::path path = mask_path(o, camera);
   if (path.empty()) return {};
   cv::Mat1b mask = pg::read_image(path, pg::ReadMode::unchanged);
-  require_camera_size(path, mask.size(), camera, "mask");
+  pg::require_camera_size(path, mask.cols, mask.rows, camera, "mask");
   return mask;
 }
 
 cv::Mat read_view(const fs::path& path, const pg::Camera& camera) {
   cv::Mat image = pg::read_image(path);
-  require_camera_size(path, image.size(), camera, "image");
+  pg::require_camera_size(path, image.cols, image.rows, camera, "image");
   return image;
 }
 
@@ -111,7 +105,7 @@ cv::Mat read_view(const fs::path& path, const pg::Camera& camera) {
 void check_pair_inputs(const Options& o, const pg::CameraSet& set, const std::vector<PairIds>& pairs) {
   const auto check_header = [](const fs::path& path, const pg::Camera& camera, const char* what) {
     if (const std::optional<cv::Size> size = pg::peek_image_size(path))
-      require_camera_size(path, *size, camera, what);
+      pg::require_camera_size(path, size->width, size->height, camera, what);
   };
   for (const PairIds& ids : pairs) {
     const pg::Camera& reference = *set.find(ids.reference);

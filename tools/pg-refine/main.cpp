@@ -367,17 +367,16 @@ int main(int argc, char** argv) {
   std::vector<char*> arguments(argv, argv + argc);
   static char run_name[] = "run";
   // A subcommand may follow the common flags (`pg-refine --threads 2 rebase ...`): the first
-  // argument that is not a common flag or its value says whether one is named.
+  // argument that is not one of the frame's own options (or its value) says whether one is named.
   const auto names_subcommand = [&] {
-    static const std::set<std::string> with_value = {"--log-level", "--threads",  "--seed",  "--max-memory",
-                                                     "--report",    "--progress", "--device"};
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
-      if (with_value.count(a)) {
-        ++i;
+      const std::size_t equals = a.find('=');
+      if (const CLI::Option* common =
+              a.starts_with("--") ? app.get_option_no_throw(a.substr(0, equals)) : nullptr) {
+        if (common->get_type_size() != 0 && equals == std::string::npos) ++i;  // its value follows
         continue;
       }
-      if (a.starts_with("--") && with_value.count(a.substr(0, a.find('=')))) continue;
       return a == "run" || a == "paint" || a == "rebase";
     }
     return false;

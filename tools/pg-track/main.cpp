@@ -7,6 +7,7 @@
 #include "common/cli.h"
 #include "pg/calib/board.h"
 #include "pg/camera/cameras_io.h"
+#include "pg/camera/size_check.h"
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/core/run_report.h"
@@ -88,14 +89,6 @@ const pg::Camera& given_camera(const Options& o, const pg::CameraSet& set, const
       o.cameras, pg::str("has no camera with the id of image ", frame.image.string(), " ('", frame.id, "')"));
 }
 
-void require_camera_size(const Options& o, const pg::Camera& camera, const pg::SequenceFrame& frame,
-                         cv::Size size) {
-  if (camera.width != size.width || camera.height != size.height)
-    throw pg::InputError(
-        o.cameras, pg::str("camera ", camera.id, " is ", camera.width, "x", camera.height, " but image ",
-                           frame.image.string(), " is ", size.width, "x", size.height));
-}
-
 // What can be checked before any image is decoded, from the files' headers: each frame's camera and
 // its size (with --cameras), or one size for the one self-calibrated camera, and masks of their
 // images' size. Frames in a format without a size in its header are checked once decoded.
@@ -107,14 +100,12 @@ void check_frame_sizes(const Options& o, const std::vector<pg::SequenceFrame>& f
   for (std::size_t f = 0; f < frames.size(); ++f) {
     if (given) {
       const pg::Camera& camera = given_camera(o, *given, frames[f]);
-      if (sizes[f]) require_camera_size(o, camera, frames[f], *sizes[f]);
+      if (sizes[f]) pg::require_camera_size(frames[f].image, sizes[f]->width, sizes[f]->height, camera);
     } else if (sizes[f] && !first) {
       first = &frames[f], first_size = *sizes[f];
-    } else if (sizes[f] && *sizes[f] != first_size) {
-      throw pg::InputError(frames[f].image,
-                           pg::str("frame ", frames[f].id, " is ", sizes[f]->width, "x", sizes[f]->height,
-                                   " but frame ", first->id, " is ", first_size.width, "x", first_size.height,
-                                   "; one camera cannot take images of different sizes"));
+    } else if (sizes[f]) {
+      pg::require_same_size(frames[f].image, {frames[f].id, sizes[f]->width, sizes[f]->height},
+                            {first->id, first_size.width, first_size.height});
     }
   }
 }
@@ -154,7 +145,7 @@ std::vector<pg::Camera> initial_cameras(const Options& o, const std::vector<pg::
   if (given) {
     for (std::size_t f = 0; f < frames.size(); ++f) {
       pg::Camera cam = given_camera(o, *given, frames[f]);
-      require_camera_size(o, cam, frames[f], {tracks.frames[f].width, tracks.frames[f].height});
+      pg::require_camera_size(frames[f].image, tracks.frames[f].width, tracks.frames[f].height, cam);
       cam.image = image_path_from(o.out, frames[f].image);
       cameras.push_back(cam);
     }

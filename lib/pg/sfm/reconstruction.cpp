@@ -9,6 +9,7 @@
 #include <opencv2/core/eigen.hpp>
 #include <optional>
 
+#include "pg/camera/size_check.h"
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/geometry/triangulation.h"
@@ -88,11 +89,9 @@ class Mapper {
       const Camera& c = initial_[f];
       if (c.model != CameraModel::pinhole) throw UsageError("tracking supports pinhole cameras only");
       group_[f] = opt_.shared_intrinsics ? 0 : f;
-      if (opt_.shared_intrinsics && (c.width != initial_[0].width || c.height != initial_[0].height))
-        throw InputError(tracks_.frames[f].image,
-                         str("frame ", tracks_.frames[f].id, " is ", c.width, "x", c.height, " but frame ",
-                             tracks_.frames[0].id, " is ", initial_[0].width, "x", initial_[0].height,
-                             "; one camera cannot take images of different sizes"));
+      if (opt_.shared_intrinsics)
+        require_same_size(tracks_.frames[f].image, {tracks_.frames[f].id, c.width, c.height},
+                          {tracks_.frames[0].id, initial_[0].width, initial_[0].height});
       if (opt_.shared_intrinsics && f > 0) continue;
       const Distortion& d = c.distortion;
       const bool radial_only = !beyond_radial2(d);
