@@ -66,8 +66,10 @@ void for_corners(const Eigen::Vector3d& p, Visit&& visit) {
   }
 }
 
+// The deterministic reduce splits the range the same way whatever the threads or their timing, so
+// the sum (and the surface) is the same on every run; parallel_reduce's splits follow work stealing.
 double dot(const std::vector<double>& a, const std::vector<double>& b) {
-  return tbb::parallel_reduce(
+  return tbb::parallel_deterministic_reduce(
       tbb::blocked_range<std::size_t>(0, a.size(), 4096), 0.0,
       [&](const tbb::blocked_range<std::size_t>& r, double sum) {
         for (std::size_t i = r.begin(); i < r.end(); ++i) sum += a[i] * b[i];
