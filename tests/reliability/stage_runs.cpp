@@ -100,6 +100,12 @@ const std::vector<StageRun>& stage_runs() {
                  "--vdb",
                  s(out / "merged.vdb")};
        }},
+      {"points", "pg-merge",
+       [](const fs::path&, const fs::path& out) -> std::vector<std::string> {
+         // The scene's mesh read as a point cloud (its vertices): normals, orientation, Poisson.
+         return {"points", "--points", s(scene("set") / "mesh.ply"), "--voxel-size",
+                 "0.05",   "--out",    s(out / "surface.ply")};
+       }},
       {"refine", "pg-refine",
        [](const fs::path&, const fs::path& out) -> std::vector<std::string> {
          const fs::path d = scene("deform");
