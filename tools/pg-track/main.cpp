@@ -408,6 +408,9 @@ int main(int argc, char** argv) {
       for (const std::string& id : result.unregistered) list += (list.empty() ? "" : ", ") + id;
       pg::log::warn("pg-track: not registered: ", list);
       std::cout << "not registered: " << list << "\n";
+      if (o.no_loops)
+        pg::log::warn("pg-track: --no-loops matches only neighbouring images; where the order of the "
+                      "images jumps (views not shot in sequence), run without it");
     }
   });
 }
