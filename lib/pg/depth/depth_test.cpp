@@ -174,14 +174,18 @@ cv::Mat2f exact_flow(const pg::Camera& a, const pg::Camera& b) {
   return flow;
 }
 
-TEST(DepthFromFlow, ExactFlowTriangulatesExactlyAndMasksAreHonoured) {
-  // Flow from the true depth: projecting each pixel's true point into the other view.
-  const pg::Camera& a = scene().left;
-  const pg::Camera& b = scene().right;
+// The left view, the right view and the exact flow between them.
+pg::DepthFromFlowInput exact_input() {
   pg::DepthFromFlowInput input;
-  input.reference = &a;
-  input.other = &b;
-  input.flow = exact_flow(a, b);
+  input.reference = &scene().left;
+  input.other = &scene().right;
+  input.flow = exact_flow(scene().left, scene().right);
+  return input;
+}
+
+TEST(DepthFromFlow, ExactFlowTriangulatesExactlyAndMasksAreHonoured) {
+  const pg::Camera& a = scene().left;
+  pg::DepthFromFlowInput input = exact_input();
   input.reference_mask = cv::Mat1b::zeros(a.height, a.width);
   input.reference_mask(cv::Rect(0, 0, 40, 40)).setTo(255);
   const pg::DepthFromFlowResult result = pg::depth_from_flow(input);
@@ -206,10 +210,7 @@ TEST(DepthFromFlow, ExactFlowTriangulatesExactlyAndMasksAreHonoured) {
 TEST(DepthFromFlow, TexturelessPixelsAreTriangulatedAndCountedLast) {
   const pg::Camera& a = scene().left;
   const pg::Camera& b = scene().right;
-  pg::DepthFromFlowInput input;
-  input.reference = &a;
-  input.other = &b;
-  input.flow = exact_flow(a, b);
+  pg::DepthFromFlowInput input = exact_input();
   input.texture = cv::Mat1f(a.height, a.width, 1.0f);
   const cv::Rect flat(150, 110, 20, 20);  // on the sphere, seen by both views
   input.texture(flat).setTo(0.0f);
@@ -240,10 +241,7 @@ TEST(DepthFromFlow, TexturelessPixelsAreTriangulatedAndCountedLast) {
 TEST(DepthFromFlow, TargetsOnTheImageEdgeReadTheOtherMasksEdge) {
   const pg::Camera& a = scene().left;
   const pg::Camera& b = scene().right;
-  pg::DepthFromFlowInput input;
-  input.reference = &a;
-  input.other = &b;
-  input.flow = cv::Mat2f(a.height, a.width);
+  pg::DepthFromFlowInput input = exact_input();
   for (int y = 0; y < a.height; ++y)
     for (int x = 0; x < a.width; ++x) input.flow(y, x) = cv::Vec2f(-0.5f - float(x), 0.0f);
   input.other_mask = cv::Mat1b::zeros(b.height, b.width);
