@@ -125,7 +125,9 @@ TEST(PgCalib, FlattenKeepsBitDepthAndStraightensLines) {
                                          (dir / "left12.jpg").string(), (tmp / "small.png").string(), "--out",
                                          (tmp / "flat2").string()});
   EXPECT_EQ(bad.exit_code, 3);
-  EXPECT_NE(bad.stderr_text.find("small.png: image is 320x240 but camera 'small' is 640x480"), std::string::npos) << bad.stderr_text;
+  EXPECT_NE(bad.stderr_text.find("small.png: image is 320x240 but camera 'small' is 640x480"),
+            std::string::npos)
+      << bad.stderr_text;
   EXPECT_FALSE(fs::exists(tmp / "flat2" / "left12.jpg"));
   EXPECT_TRUE(flat.cameras[0].distortion.is_zero());
   EXPECT_EQ(flat.cameras[1].image, "deep.png");

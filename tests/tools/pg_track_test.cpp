@@ -441,7 +441,8 @@ TEST_F(PgTrack, InputsOfTheWrongSizeFailBeforeTracking) {
   cameras.cameras.erase(cameras.cameras.begin() + 2);
   pg::write_cameras(out / "missing.json", cameras);
   const std::vector<std::pair<std::string, std::string>> calibrations = {
-      {"small.json", "view_004.png: image is 640x480 but camera 'view_004' is 320x480"}, {"missing.json", "has no camera with the id of image"}};
+      {"small.json", "view_004.png: image is 640x480 but camera 'view_004' is 320x480"},
+      {"missing.json", "has no camera with the id of image"}};
   for (const auto& [file, message] : calibrations) {
     const auto r = run_tool("pg-track", {"--images", (scene() / "images").string(), "--cameras",
                                          (out / file).string(), "--out", (out / "track").string()});

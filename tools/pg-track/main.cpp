@@ -409,8 +409,9 @@ int main(int argc, char** argv) {
       pg::log::warn("pg-track: not registered: ", list);
       std::cout << "not registered: " << list << "\n";
       if (o.no_loops)
-        pg::log::warn("pg-track: --no-loops matches only neighbouring images; where the order of the "
-                      "images jumps (views not shot in sequence), run without it");
+        pg::log::warn(
+            "pg-track: --no-loops matches only neighbouring images; where the order of the "
+            "images jumps (views not shot in sequence), run without it");
     }
   });
 }
