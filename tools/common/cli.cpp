@@ -46,9 +46,9 @@ std::terminate_handler previous_terminate = nullptr;
 // still exit code 5 (a farm retries on a bigger node), and no temporary output is left behind.
 [[noreturn]] void on_terminate() {
   bool out_of_memory = false;
-  if (const std::exception_ptr e = std::current_exception()) {
+  if (std::current_exception()) {
     try {
-      std::rethrow_exception(e);
+      throw;  // the exception being handled, without allocating (rethrow_exception may)
     } catch (const std::bad_alloc&) {
       out_of_memory = true;
     } catch (...) {

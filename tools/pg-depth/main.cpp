@@ -190,7 +190,7 @@ int main(int argc, char** argv) {
                  "minimum triangulation angle, degrees (1)");
   app.add_option("--max-fb-error", o.filter.max_fb_error, "forward-backward flow error limit, pixels (1)");
   app.add_option("--min-texture", o.filter.min_texture,
-                 "local RMS intensity gradient below which no depth is given (0.004; 0 = off)");
+                 "local RMS intensity gradient below which a pixel is rejected (0.004; 0 = off)");
   app.add_option("--max-grazing", o.filter.max_grazing_angle_deg,
                  "maximum normal-to-ray angle, degrees (80)");
   app.add_option("--max-depth-jump", o.filter.max_depth_jump,

@@ -320,9 +320,9 @@ int main(int argc, char** argv) {
   run->add_option("--max-displacement", run_args.options.max_displacement,
                   "per-pixel displacement outlier limit (scene units; 0 = 5% of the mesh's size)")
       ->capture_default_str();
-  run->add_option(
-         "--border-taper", run_args.options.border_taper_px,
-         "pixels over which weights ramp up from the border of the co-visible region and of the image")
+  run->add_option("--border-taper", run_args.options.border_taper_px,
+                  "pixels over which weights ramp up from the border of the co-visible region and of the "
+                  "image (a panorama's columns wrap)")
       ->capture_default_str();
   run->add_option("--working-set-taper", run_args.options.working_set_taper_rings,
                   "vertex rings over which motion ramps up inside the working set")

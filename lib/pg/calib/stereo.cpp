@@ -104,7 +104,7 @@ int reconcile_corner_order(const std::vector<cv::Point3f>& points, const std::ve
   if (!reference) return 0;
   int reversed = 0;
   for (std::size_t i = 0; i < n; ++i)
-    if (nearest(i, *reference).second == 1) {
+    if (const auto [distance, side] = nearest(i, *reference); side == 1 && distance < agree) {
       std::reverse(second[i].begin(), second[i].end());
       log::info("stereo: ", first[i].name,
                 ": the second camera's corners were listed from the other end; reversed");

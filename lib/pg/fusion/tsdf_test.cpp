@@ -276,8 +276,8 @@ TEST(Tsdf, MemoryLimitFailsBeforeAllocating) {
 }
 
 // The estimate counts the internal nodes a sparse leaf brings (at a small voxel size, ten times the
-// leaf): a budget just under what the grids then take fails before allocating, for the first frame
-// and for the second on top of the first, and a budget a little over it passes.
+// leaf): a budget just under what the grids then take fails (before allocating, for the first
+// frame), and twice it passes.
 TEST(Tsdf, MemoryEstimateCoversTheInternalNodesOfSparseLeaves) {
   const auto frames = frames_of(set_scene(), orbit(2, 3.0, 1.8, {0, 0, 0.2}, 96, 72, 85));
   for (const double voxel : {0.02, 0.001}) {
@@ -286,6 +286,9 @@ TEST(Tsdf, MemoryEstimateCoversTheInternalNodesOfSparseLeaves) {
     const std::uint64_t after_first = unlimited.memory_bytes();
     unlimited.integrate(frames[1]);
     const std::uint64_t after_both = unlimited.memory_bytes();
+    TsdfVolume first_under({.voxel_size = voxel, .max_memory = after_first * 95 / 100});
+    EXPECT_THROW(first_under.integrate(frames[0]), Error) << voxel;
+    EXPECT_EQ(first_under.leaf_count(), 0u);
     for (const std::uint64_t needed : {after_first, after_both}) {
       TsdfVolume under({.voxel_size = voxel, .max_memory = needed * 95 / 100});
       EXPECT_THROW(

@@ -53,7 +53,8 @@ struct RefineOptions {
   // Per-pixel displacements longer than this are outliers (scene units; 0 = 5% of the mesh's
   // bounding-box diagonal).
   double max_displacement = 0;
-  // Weights ramp up over this many pixels from the border of the co-visible region and of B's image.
+  // Weights ramp up over this many pixels from the border of the co-visible region and of B's image
+  // (a panorama's image has no edge: its columns wrap).
   double border_taper_px = 6;
   int working_set_taper_rings = 3;  // motion ramps up over this many vertex rings inside the working set
   double relative_depth_tolerance = 0.01;  // visibility test in A (fraction of the depth)

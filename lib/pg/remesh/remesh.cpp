@@ -482,27 +482,45 @@ std::optional<Vec3> proper_normal(const TriMesh& mesh, FaceHandle f) {
   return n.normalized();
 }
 
+// Whether the edge of halfedge h is sharp: its two faces meet at more than the feature angle. A face
+// without area has no normal of its own (its zero or, after rounding, arbitrary normal made all its
+// edges features and kept the sliver); it stands in for the faces across its other two edges, so a
+// sliver on a crease keeps the crease and one on a smooth part is remeshed away.
+bool sharp_edge(const TriMesh& mesh, HalfedgeHandle h, float feature_cos) {
+  const std::optional<Vec3> n0 = proper_normal(mesh, mesh.face_handle(h));
+  const std::optional<Vec3> n1 = proper_normal(mesh, mesh.opposite_face_handle(h));
+  if (n0 && n1) return OpenMesh::dot(*n0, *n1) < feature_cos;
+  if (!n0 && !n1) return false;
+  const Vec3 known = n0 ? *n0 : *n1;
+  const HalfedgeHandle inside = n0 ? mesh.opposite_halfedge_handle(h) : h;  // in the sliver
+  for (const HalfedgeHandle other : {mesh.next_halfedge_handle(inside), mesh.prev_halfedge_handle(inside)}) {
+    if (mesh.is_boundary(mesh.edge_handle(other))) continue;
+    const std::optional<Vec3> across = proper_normal(mesh, mesh.opposite_face_handle(other));
+    if (across && OpenMesh::dot(known, *across) < feature_cos) return true;
+  }
+  return false;
+}
+
 // Marks feature edges (boundaries, and dihedral angles above the threshold) and corner vertices
-// (feature vertices where the feature edges do not continue as one line). An edge of a face without
-// area is no feature (before, its zero normal made it one, and kept the sliver in the output).
+// (feature vertices where the feature edges do not continue as one line).
 void mark_features(TriMesh& mesh, const Properties& r, float feature_cos) {
   for (const auto e : mesh.edges()) {
     bool feature = mesh.is_boundary(e);
-    if (!feature) {
-      const HalfedgeHandle h = mesh.halfedge_handle(e, 0);
-      const std::optional<Vec3> n0 = proper_normal(mesh, mesh.face_handle(h));
-      const std::optional<Vec3> n1 = proper_normal(mesh, mesh.opposite_face_handle(h));
-      feature = n0 && n1 && OpenMesh::dot(*n0, *n1) < feature_cos;
-    }
+    if (!feature) feature = sharp_edge(mesh, mesh.halfedge_handle(e, 0), feature_cos);
     mesh.property(r.efeature, e) = feature;
   }
   for (const auto v : mesh.vertices()) {
+    // Feature edges leaving in one direction count once (a sliver on a crease lays two of its edges
+    // along the crease).
     int count = 0;
     Vec3 directions[2];
     for (const HalfedgeHandle h : mesh.voh_range(v))
       if (mesh.property(r.efeature, mesh.edge_handle(h))) {
-        if (count < 2)
-          directions[count] = (mesh.point(mesh.to_vertex_handle(h)) - mesh.point(v)).normalized();
+        const Vec3 d = (mesh.point(mesh.to_vertex_handle(h)) - mesh.point(v)).normalized();
+        const bool seen = std::any_of(directions, directions + std::min(count, 2),
+                                      [&](const Vec3& e) { return OpenMesh::dot(d, e) > 1 - 1e-5f; });
+        if (seen) continue;
+        if (count < 2) directions[count] = d;
         ++count;
       }
     mesh.property(r.vfeature, v) = count > 0;

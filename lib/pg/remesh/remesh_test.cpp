@@ -91,6 +91,45 @@ TEST(Remesh, FacesWithoutAreaAreNoFeaturesAndDoNotSurvive) {
   }
 }
 
+// A sliver on a crease (an edge of the box split on one side only) keeps the crease: the faces across
+// the sliver say its edges are sharp, and its two edges along the crease leave their end in one
+// direction, so the box still has its 8 corners and no others, and the crease stays straight.
+TEST(Remesh, ASliverOnACreaseKeepsTheCrease) {
+  const Eigen::Vector3f size(1.0f, 0.6f, 0.8f);
+  Mesh box = test::box(size, 7);
+  const std::vector<Segment> lines = box_edges(size);
+  const auto on_a_line = [&](std::uint32_t v) {
+    for (const Segment& s : lines)
+      if (distance_to_segment(box.positions[v], s) < 1e-6f) return true;
+    return false;
+  };
+  for (std::size_t f = 0; f < box.faces.size(); ++f) {
+    const auto face = box.faces[f];
+    int k = 0;
+    while (k < 3 && !(on_a_line(face[(k + 1) % 3]) && on_a_line(face[(k + 2) % 3]))) ++k;
+    if (k == 3 || on_a_line(face[k])) continue;  // no edge on a crease, or a corner triangle
+    const std::uint32_t a = face[k], b = face[(k + 1) % 3], c = face[(k + 2) % 3];
+    const auto m = std::uint32_t(box.positions.size());
+    box.positions.push_back(0.5f * (box.positions[b] + box.positions[c]));
+    box.faces[f] = {a, b, m};
+    box.faces.push_back({a, m, c});
+    box.faces.push_back({b, c, m});  // collinear: no area
+    break;
+  }
+  ASSERT_EQ(box.faces.size(), test::box(size, 7).faces.size() + 2);
+  RemeshOptions options;
+  options.target_length = 0.05f;
+  const RemeshResult r = remesh(box, options);
+  EXPECT_EQ(r.stats.corner_vertices, 8u);
+  // Every output vertex stays on the box's surface, and those on its crease lines stay there.
+  for (std::size_t v = 0; v < r.mesh.vertex_count(); ++v) {
+    const Eigen::Vector3f p = r.mesh.positions[v];
+    const float outside = (p.cwiseMax(Eigen::Vector3f::Zero()) - p).norm() + (p - p.cwiseMin(size)).norm();
+    const Eigen::Vector3f to_sides = p.cwiseMin(size - p);
+    EXPECT_LT(outside + to_sides.minCoeff(), 1e-5f) << p.transpose();
+  }
+}
+
 TEST(Remesh, BoxKeepsItsSharpEdgesAndCorners) {
   const Eigen::Vector3f size(1.0f, 0.6f, 0.8f);
   const Mesh box = test::box(size, 7);
