@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "common/cli.h"
+#include "pg/camera/size_check.h"
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/core/run_report.h"
@@ -157,7 +158,7 @@ void check_input(cli::Frame& frame, MergeInput& in, const InputOptions& o) {
     }
     case InputKind::rgbd:
       if (const std::optional<cv::Size> size = peek_image_size(in.path))
-        require_rgbd_depth_size(in.path, *size, in.camera);
+        require_camera_size(in.path, size->width, size->height, in.camera, "depth image");
       in.mask = checked_mask(o.masks_dir, in.camera.id, in.path, in.camera);
       break;
     case InputKind::scan:

@@ -82,8 +82,8 @@ int reconcile_corner_order(const std::vector<cv::Point3f>& points, const std::ve
     double best = std::numeric_limits<double>::infinity();
     int side = 0;
     for (int s = 0; s < 2; ++s)
-      if (candidates[j][s] && angle_between(*candidates[j][s], r) < best) {
-        best = angle_between(*candidates[j][s], r);
+      if (const double angle = candidates[j][s] ? angle_between(*candidates[j][s], r) : best; angle < best) {
+        best = angle;
         side = s;
       }
     return std::pair{best, side};

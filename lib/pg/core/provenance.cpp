@@ -1,7 +1,6 @@
 #include "pg/core/provenance.h"
 
 #include <algorithm>
-
 #include <chrono>
 #include <ctime>
 #include <mutex>

@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "pg/camera/size_check.h"
 #include "pg/core/error.h"
 #include "pg/core/log.h"
 #include "pg/image/image_io.h"
@@ -159,12 +160,6 @@ void require_mask_size(const std::filesystem::path& mask_path, cv::Size mask,
                                     source.string(), " is ", depth.width, "x", depth.height));
 }
 
-void require_rgbd_depth_size(const std::filesystem::path& path, cv::Size size, const Camera& camera) {
-  if (size.width != camera.width || size.height != camera.height)
-    throw InputError(path, str("depth image is ", size.width, "x", size.height, " but camera '", camera.id,
-                               "' is ", camera.width, "x", camera.height));
-}
-
 cv::Mat read_mask_image(const std::filesystem::path& path) {
   cv::Mat image = read_image(path, ReadMode::unchanged);
   if (image.channels() > 1) cv::extractChannel(image, image, 0);
@@ -186,7 +181,7 @@ DepthMap read_rgbd_depth(const std::filesystem::path& path, const Camera& camera
   const cv::Mat raw = read_image(path, ReadMode::unchanged);
   if (raw.channels() != 1 || (raw.depth() != CV_16U && raw.depth() != CV_32F))
     throw InputError(path, "an RGB-D depth image must be single-channel 16-bit (PNG/PGM) or 32-bit float");
-  require_rgbd_depth_size(path, raw.size(), camera);
+  require_camera_size(path, raw.cols, raw.rows, camera, "depth image");
   DepthMap map;
   raw.convertTo(map.depth, CV_32F, depth_scale);
   map.depth.setTo(NAN, raw == 0);

@@ -68,10 +68,6 @@ DepthFrame make_depth_frame(const DepthMap& map, const std::filesystem::path& so
 void require_mask_size(const std::filesystem::path& mask_path, cv::Size mask,
                        const std::filesystem::path& source, cv::Size depth);
 
-// Throws InputError(path) unless an RGB-D depth image of `size` fits `camera`: the size check
-// read_rgbd_depth makes, for tools that check every input's header first.
-void require_rgbd_depth_size(const std::filesystem::path& path, cv::Size size, const Camera& camera);
-
 // Reads a user mask image (any 8/16-bit image; nonzero = ignore) as CV_8UC1.
 cv::Mat read_mask_image(const std::filesystem::path& path);
 // Reads a colour image as 8-bit BGR (grey replicated; 16-bit scaled down).

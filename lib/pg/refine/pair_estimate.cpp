@@ -15,15 +15,17 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-// Bilinear, clamped at the edges, except that a panorama's columns wrap around (the seam at 180
-// degrees of longitude joins its last column to its first).
+// Column c of an image `width` wide: clamped to the image, except that a panorama's columns wrap
+// around (the seam at 180 degrees of longitude joins its last column to its first).
+int column_index(int c, int width, bool wraps) {
+  return wraps ? (c % width + width) % width : std::clamp(c, 0, width - 1);
+}
+
+// Bilinear, clamped at the edges, the columns of a panorama wrapped.
 float sample_bilinear(const cv::Mat1f& image, double x, double y, bool wraps) {
   const double fx = std::floor(x), fy = std::floor(y);
   const float ax = float(x - fx), ay = float(y - fy);
-  const auto column = [&](int c) {
-    return wraps ? (c % image.cols + image.cols) % image.cols : std::clamp(c, 0, image.cols - 1);
-  };
-  const int x0 = column(int(fx)), x1 = column(int(fx) + 1);
+  const int x0 = column_index(int(fx), image.cols, wraps), x1 = column_index(int(fx) + 1, image.cols, wraps);
   const int y0 = std::clamp(int(fy), 0, image.rows - 1), y1 = std::clamp(int(fy) + 1, 0, image.rows - 1);
   const float top = image(y0, x0) * (1 - ax) + image(y0, x1) * ax;
   const float bottom = image(y1, x0) * (1 - ax) + image(y1, x1) * ax;
@@ -81,7 +83,7 @@ void synthesize(const Mesh& mesh, const RefineViewState& a, const RefineViewStat
   const int w = b.camera.width, h = b.camera.height;
   out.image.create(h, w);
   out.valid.create(h, w);
-  const bool range_depth = !a.camera.is_perspective(), a_wraps = !a.camera.is_perspective();
+  const bool a_panorama = !a.camera.is_perspective();  // range depth, and columns that wrap
   parallel_chunks(h, 8, [&](std::int64_t y0, std::int64_t y1) {
     for (int y = int(y0); y < int(y1); ++y)
       for (int x = 0; x < w; ++x) {
@@ -92,13 +94,12 @@ void synthesize(const Mesh& mesh, const RefineViewState& a, const RefineViewStat
         const Eigen::Vector3d in_a = a.camera.cam_from_world * hit_point(mesh, b.buffers, i);
         Eigen::Vector2d pixel;
         if (!a.camera.project(in_a, pixel) || !a.camera.in_image(pixel)) continue;
-        const int rounded = int(std::lround(pixel.x())), width = a.camera.width;
-        const int nx = a_wraps ? (rounded % width + width) % width : std::clamp(rounded, 0, width - 1);
+        const int nx = column_index(int(std::lround(pixel.x())), a.camera.width, a_panorama);
         const int ny = std::clamp(int(std::lround(pixel.y())), 0, a.camera.height - 1);
         const double seen = a.buffers.depth.at<float>(ny, nx);
-        const double own = range_depth ? in_a.norm() : in_a.z();
+        const double own = a_panorama ? in_a.norm() : in_a.z();
         if (!(std::abs(seen - own) <= relative_depth_tolerance * std::abs(own))) continue;  // NaN too
-        out.image(y, x) = sample_bilinear(a.gray, pixel.x(), pixel.y(), a_wraps);
+        out.image(y, x) = sample_bilinear(a.gray, pixel.x(), pixel.y(), a_panorama);
         out.valid(y, x) = 255;
       }
   });
